@@ -1,0 +1,217 @@
+//! The camera: look-from / look-at / up, clipping planes, field of view, image size
+//! (SPEC §5.2), and the derived view frame.
+
+use crate::affine::Affine4;
+use crate::error::{Error, ErrorKind, Result};
+use crate::math;
+use glam::DVec3;
+
+/// What the user gives (`-fr -at -up -nc -fc -fov -sz -ortho`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSpec {
+    /// Look-from point (world).
+    pub fr: [f64; 3],
+    /// Look-at point (world).
+    pub at: [f64; 3],
+    /// Up vector (world); need not be unit length or perpendicular to the view direction.
+    pub up: [f64; 3],
+    /// Near clipping plane, distance along the view direction relative to the look-at
+    /// (negative = between look-at and eye).
+    pub nc: f64,
+    /// Far clipping plane, relative to the look-at.
+    pub fc: f64,
+    /// Full vertical field of view, degrees.
+    pub fov: f64,
+    /// Image size: horizontal, vertical samples.
+    pub size: [u32; 2],
+    /// Orthographic instead of perspective projection.
+    pub ortho: bool,
+}
+
+/// A validated camera with its derived frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// The inputs it was built from.
+    pub spec: CameraSpec,
+    /// Aspect ratio size[0] / size[1].
+    pub ar: f64,
+    /// Distance |fr − at| (world units).
+    pub d: f64,
+    /// View-space basis in world: right.
+    pub u: DVec3,
+    /// View-space basis in world: up.
+    pub v: DVec3,
+    /// View-space basis in world: backward (from look-at towards the eye).
+    pub n: DVec3,
+    /// World-to-view transform.
+    pub wtov: Affine4,
+    /// View-to-world transform (columns u, v, n, fr).
+    pub vtow: Affine4,
+    /// Distance from the eye to the near plane (view units = world units).
+    pub ncv: f64,
+    /// Distance from the eye to the far plane.
+    pub fcv: f64,
+    /// Height of the image plane through the look-at (world units).
+    pub hght: f64,
+    /// Width of the image plane through the look-at.
+    pub wdth: f64,
+}
+
+fn cam_err(msg: alloc::string::String) -> Error {
+    Error::new(ErrorKind::Camera, msg)
+}
+
+impl Camera {
+    /// Checks the inputs and computes the frame (SPEC §5.2).
+    pub fn new(spec: CameraSpec) -> Result<Camera> {
+        use alloc::format;
+        let fr = DVec3::from_array(spec.fr);
+        let at = DVec3::from_array(spec.at);
+        let up = DVec3::from_array(spec.up);
+        for (name, x) in [("fr", spec.fr), ("at", spec.at), ("up", spec.up)] {
+            if !math::v3::finite(x) {
+                return Err(cam_err(format!("-{name}: not all finite ({} {} {})", x[0], x[1], x[2])));
+            }
+        }
+        for (name, x) in [("nc", spec.nc), ("fc", spec.fc), ("fov", spec.fov)] {
+            if !x.is_finite() {
+                return Err(cam_err(format!("-{name}: {x} is not finite")));
+            }
+        }
+        if !(spec.fov > 0.0 && spec.fov < 160.0) {
+            return Err(cam_err(format!("-fov: need 0 < FOV < 160 degrees (got {})", spec.fov)));
+        }
+        if spec.size[0] == 0 || spec.size[1] == 0 {
+            return Err(cam_err(format!(
+                "-sz: image sizes must be > 0 (got {} {})",
+                spec.size[0], spec.size[1]
+            )));
+        }
+        if spec.nc >= spec.fc {
+            return Err(cam_err(format!(
+                "-nc/-fc: near clip {} must be less than far clip {}",
+                spec.nc, spec.fc
+            )));
+        }
+        let diff = fr - at;
+        let d = diff.length();
+        if !(d > 0.0) || !d.is_finite() {
+            return Err(cam_err(format!(
+                "-fr/-at: look-from equals look-at ({} {} {})",
+                spec.fr[0], spec.fr[1], spec.fr[2]
+            )));
+        }
+        let n = diff / d;
+        let uc = up.cross(n);
+        let ul = uc.length();
+        if !(ul > 1e-10 * up.length()) || up.length() == 0.0 {
+            return Err(cam_err(format!(
+                "-up: up vector ({} {} {}) is zero or parallel to the view direction",
+                spec.up[0], spec.up[1], spec.up[2]
+            )));
+        }
+        let u = uc / ul;
+        let v = n.cross(u);
+        let ncv = d + spec.nc;
+        let fcv = d + spec.fc;
+        if !spec.ortho && ncv <= 0.0 {
+            return Err(cam_err(format!(
+                "-nc: near plane {} puts it at or behind the eye (look-from is {d} from look-at)",
+                spec.nc
+            )));
+        }
+        let hght = 2.0 * d * math::tan(spec.fov.to_radians() / 2.0);
+        let ar = spec.size[0] as f64 / spec.size[1] as f64;
+        let wdth = ar * hght;
+        let vtow = Affine4::from_columns(u.to_array(), v.to_array(), n.to_array(), spec.fr);
+        let wtov = Affine4::from_rows([
+            u.x,
+            u.y,
+            u.z,
+            -u.dot(fr),
+            v.x,
+            v.y,
+            v.z,
+            -v.dot(fr),
+            n.x,
+            n.y,
+            n.z,
+            -n.dot(fr),
+            0.,
+            0.,
+            0.,
+            1.,
+        ]);
+        Ok(Camera { spec, ar, d, u, v, n, wtov, vtow, ncv, fcv, hght, wdth })
+    }
+
+    /// Image-plane position (u, v) of the centre of pixel (hi, vi); vi = 0 is the top row
+    /// (SPEC §5.3).
+    #[inline]
+    pub fn image_plane(&self, hi: u32, vi: u32) -> (f64, f64) {
+        let us = -self.wdth / 2.0 + self.wdth * (hi as f64 + 0.5) / self.spec.size[0] as f64;
+        let vs = self.hght / 2.0 - self.hght * (vi as f64 + 0.5) / self.spec.size[1] as f64;
+        (us, vs)
+    }
+
+    /// View-space start on the near plane and per-plane step for pixel (hi, vi), for a
+    /// plane separation `plane_sep` (SPEC §5.3).
+    #[inline]
+    pub fn ray(&self, hi: u32, vi: u32, plane_sep: f64) -> ([f64; 3], [f64; 3]) {
+        let (us, vs) = self.image_plane(hi, vi);
+        if self.spec.ortho {
+            ([us, vs, -self.ncv], [0.0, 0.0, -plane_sep])
+        } else {
+            let s = self.ncv / self.d;
+            (
+                [us * s, vs * s, -self.ncv],
+                [plane_sep * us / self.d, plane_sep * vs / self.d, -plane_sep],
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> CameraSpec {
+        CameraSpec {
+            fr: [6., 12., 5.],
+            at: [0., 0., 0.],
+            up: [0., 0., 1.],
+            nc: -2.56304,
+            fc: 2.56304,
+            fov: 16.,
+            size: [300, 300],
+            ortho: false,
+        }
+    }
+
+    #[test]
+    fn spec_13_1() {
+        let c = Camera::new(spec()).unwrap();
+        assert!((c.ncv - 11.7547811).abs() < 1e-6);
+        assert!((c.fcv - 16.8808611).abs() < 1e-6);
+        assert!((c.hght - 4.02447705).abs() < 1e-7);
+        assert!((c.u.x + 0.894427191).abs() < 1e-9);
+        let p = c.wtov.point(c.vtow.point([1.0, 2.0, 3.0]));
+        assert!((p[2] - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_cameras() {
+        let mut s = spec();
+        s.at = s.fr;
+        assert_eq!(Camera::new(s).unwrap_err().kind, ErrorKind::Camera);
+        let mut s = spec();
+        s.up = [6., 12., 5.];
+        assert!(Camera::new(s).unwrap_err().msg.contains("parallel"));
+        let mut s = spec();
+        s.fov = 160.0;
+        assert!(Camera::new(s).is_err());
+        let mut s = spec();
+        s.size = [0, 3];
+        assert!(Camera::new(s).is_err());
+    }
+}

@@ -1,0 +1,177 @@
+//! Separable 3-D convolution at a point (SPEC §7.2): the inside rule, value, index- and
+//! world-space gradient.
+//!
+//! [`Convo`] is generic over the voxel type `V`, the kernel `K` and its support `S`, so
+//! every loop below runs over compile-time-sized arrays and is monomorphized per
+//! (voxel, kernel) pair. It caches the S×S×S voxel neighbourhood and reuses it while the
+//! integer base index does not change (consecutive ray samples often share it).
+
+use core::marker::PhantomData;
+
+use crate::kernel::Kernel;
+use crate::volume::Volume;
+use crate::voxel::Voxel;
+
+/// Result of one convolution.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ConvoSample {
+    /// Index-space position that was evaluated.
+    pub pos_i: [f64; 3],
+    /// Whether the kernel support lies entirely inside the volume; when false the other
+    /// fields are zero.
+    pub inside: bool,
+    /// Reconstructed value.
+    pub value: f32,
+    /// Gradient in index space (per unit index step); zero unless asked for.
+    pub grad_i: [f32; 3],
+    /// Gradient in world space; zero unless asked for.
+    pub grad_w: [f32; 3],
+}
+
+/// Per-thread convolution state over one volume with kernel `K` of support `S`.
+#[derive(Debug, Clone)]
+pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
+    vol: Volume<'v, V>,
+    sizes: [i64; 3],
+    /// Transpose of WtoI's 3×3 (maps index-space gradients to world space).
+    gmat: [[f32; 3]; 3],
+    base: [i64; 3],
+    have: bool,
+    nb: [[[f32; S]; S]; S],
+    _k: PhantomData<K>,
+}
+
+/// Largest |index coordinate| considered; beyond this everything is outside (keeps the
+/// integer arithmetic far from overflow).
+const INDEX_LIMIT: f64 = 1e12;
+
+impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
+    /// New convolution state for `vol`.
+    pub fn new(vol: Volume<'v, V>) -> Self {
+        let w = vol.wtoi();
+        let mut gmat = [[0.0f32; 3]; 3];
+        for (r, row) in gmat.iter_mut().enumerate() {
+            for (c, e) in row.iter_mut().enumerate() {
+                *e = w.at(c, r) as f32;
+            }
+        }
+        let s = vol.sizes();
+        Convo {
+            vol,
+            sizes: [s[0] as i64, s[1] as i64, s[2] as i64],
+            gmat,
+            base: [0; 3],
+            have: false,
+            nb: [[[0.0; S]; S]; S],
+            _k: PhantomData,
+        }
+    }
+
+    /// The volume.
+    pub fn volume(&self) -> &Volume<'v, V> {
+        &self.vol
+    }
+
+    /// Convolution at world point `pos_w`; the gradient only when `grad` is true.
+    #[inline]
+    pub fn eval_world(&mut self, pos_w: [f64; 3], grad: bool) -> ConvoSample {
+        let pos_i = self.vol.wtoi().point(pos_w);
+        self.eval_index(pos_i, grad)
+    }
+
+    /// Convolution at index-space point `pos_i`.
+    #[inline]
+    pub fn eval_index(&mut self, pos_i: [f64; 3], grad: bool) -> ConvoSample {
+        let mut out = ConvoSample { pos_i, ..ConvoSample::default() };
+        let mut n = [0i64; 3];
+        let mut alpha = [0.0f32; 3];
+        for a in 0..3 {
+            let x = pos_i[a];
+            if !(x > -INDEX_LIMIT && x < INDEX_LIMIT) {
+                return out;
+            }
+            let (b, al) = K::base(x);
+            let lo = b + K::LO as i64;
+            if lo < 0 || lo + S as i64 > self.sizes[a] {
+                return out;
+            }
+            n[a] = lo;
+            alpha[a] = al;
+        }
+        out.inside = true;
+        if !self.have || n != self.base {
+            self.load(n);
+        }
+        let wx = K::weights(alpha[0]);
+        let wy = K::weights(alpha[1]);
+        let wz = K::weights(alpha[2]);
+        if !grad {
+            let mut val = 0.0f32;
+            for k in 0..S {
+                let mut a = 0.0f32;
+                for j in 0..S {
+                    let row = &self.nb[k][j];
+                    let mut r = 0.0f32;
+                    for i in 0..S {
+                        r += wx[i] * row[i];
+                    }
+                    a += wy[j] * r;
+                }
+                val += wz[k] * a;
+            }
+            out.value = val;
+            return out;
+        }
+        let dx = K::weights_d1(alpha[0]);
+        let dy = K::weights_d1(alpha[1]);
+        let dz = K::weights_d1(alpha[2]);
+        let (mut val, mut gx, mut gy, mut gz) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        for k in 0..S {
+            let (mut a, mut b, mut c) = (0.0f32, 0.0f32, 0.0f32);
+            for j in 0..S {
+                let row = &self.nb[k][j];
+                let (mut r, mut rd) = (0.0f32, 0.0f32);
+                for i in 0..S {
+                    r += wx[i] * row[i];
+                    rd += dx[i] * row[i];
+                }
+                a += wy[j] * r;
+                b += dy[j] * r;
+                c += wy[j] * rd;
+            }
+            val += wz[k] * a;
+            gz += dz[k] * a;
+            gy += wz[k] * b;
+            gx += wz[k] * c;
+        }
+        out.value = val;
+        out.grad_i = [gx, gy, gz];
+        let m = &self.gmat;
+        out.grad_w = [
+            m[0][0] * gx + m[0][1] * gy + m[0][2] * gz,
+            m[1][0] * gx + m[1][1] * gy + m[1][2] * gz,
+            m[2][0] * gx + m[2][1] * gy + m[2][2] * gz,
+        ];
+        out
+    }
+
+    #[inline]
+    fn load(&mut self, n: [i64; 3]) {
+        let data = self.vol.data();
+        let s0 = self.sizes[0] as usize;
+        let s1 = self.sizes[1] as usize;
+        let (n0, n1, n2) = (n[0] as usize, n[1] as usize, n[2] as usize);
+        for k in 0..S {
+            for j in 0..S {
+                let start = n0 + s0 * ((n1 + j) + s1 * (n2 + k));
+                let src = &data[start..start + S];
+                let dst = &mut self.nb[k][j];
+                for i in 0..S {
+                    dst[i] = src[i].to_f32();
+                }
+            }
+        }
+        self.base = n;
+        self.have = true;
+    }
+}

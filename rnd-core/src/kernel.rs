@@ -1,0 +1,497 @@
+//! Reconstruction kernels (SPEC §7.1) and their first and second derivatives.
+//!
+//! Each kernel is a zero-sized type implementing [`Kernel<S>`] where `S` is its support
+//! (samples per axis). The piecewise polynomials are written once, generic over
+//! [`num_traits::Float`], and evaluated in f64 for `keval` and in f32 in the convolution
+//! loop. [`KernelName`] is the run-time name (parsed case-insensitively).
+
+use core::fmt;
+use core::str::FromStr;
+use num_traits::Float;
+
+use crate::error::{Error, ErrorKind};
+
+#[inline(always)]
+fn c<T: Float>(x: f64) -> T {
+    // Constant conversion f64 -> T cannot fail for f32/f64.
+    T::from(x).unwrap_or_else(T::nan)
+}
+
+#[inline(always)]
+fn sgn<T: Float>(x: T) -> T {
+    if x < T::zero() {
+        -T::one()
+    } else {
+        T::one()
+    }
+}
+
+/// A separable reconstruction kernel with compile-time support `S`.
+///
+/// The weight of sample `n + lo + i` (for `i` in `0..S`) at fractional position `alpha`
+/// is `K(alpha - lo - i)` where `lo` is [`Kernel::LO`] (SPEC §7.2).
+pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
+    /// The kernel's run-time name.
+    const NAME: KernelName;
+    /// Offset of the first sample relative to the base index: `1 - S/2` for even S,
+    /// `-(S-1)/2` for odd S.
+    const LO: i32 = if S % 2 == 0 { 1 - (S as i32) / 2 } else { -((S as i32 - 1) / 2) };
+
+    /// Kernel value at `x`.
+    fn k<T: Float>(x: T) -> T;
+    /// First derivative at `x`.
+    fn d1<T: Float>(x: T) -> T;
+    /// Second derivative at `x`.
+    fn d2<T: Float>(x: T) -> T;
+
+    /// Value weights for fractional position `alpha` (lowest index first).
+    #[inline(always)]
+    fn weights(alpha: f32) -> [f32; S] {
+        core::array::from_fn(|i| Self::k(alpha - (Self::LO + i as i32) as f32))
+    }
+    /// First-derivative weights for fractional position `alpha`.
+    #[inline(always)]
+    fn weights_d1(alpha: f32) -> [f32; S] {
+        core::array::from_fn(|i| Self::d1(alpha - (Self::LO + i as i32) as f32))
+    }
+    /// Integer base index and fractional offset for index-space coordinate `x`
+    /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
+    #[inline(always)]
+    fn base(x: f64) -> (i64, f32) {
+        let n = if S % 2 == 0 { crate::math::floor(x) } else { crate::math::floor(x + 0.5) };
+        (n as i64, (x - n) as f32)
+    }
+}
+
+macro_rules! kernel_type {
+    ($(#[$m:meta])* $ty:ident, $s:expr, $name:ident) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+        pub struct $ty;
+        impl $ty {
+            /// Support (samples per axis).
+            pub const SUPPORT: usize = $s;
+        }
+    };
+}
+
+kernel_type!(
+    /// The zero kernel (support 1): everything is 0; its derivative is itself.
+    Zero, 1, Zero);
+kernel_type!(
+    /// Box (support 1): 1 on [−0.5, 0.5), else 0. Derivative: zero.
+    BoxK, 1, Box);
+kernel_type!(
+    /// Tent (support 2): linear interpolation.
+    Tent, 2, Tent);
+kernel_type!(
+    /// Quadratic B-spline (support 3).
+    Bspln2, 3, Bspln2);
+kernel_type!(
+    /// Cubic B-spline (support 4): C², approximating.
+    Bspln3, 4, Bspln3);
+kernel_type!(
+    /// Catmull-Rom cubic spline (support 4): interpolating, C¹.
+    Ctmr, 4, Ctmr);
+kernel_type!(
+    /// Teem's C4 hexic (support 6): C⁴, partition of unity, not interpolating.
+    C4Hexic, 6, C4hexic);
+
+impl Kernel<1> for Zero {
+    const NAME: KernelName = KernelName::Zero;
+    fn k<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+    fn d1<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+    fn d2<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+}
+
+impl Kernel<1> for BoxK {
+    const NAME: KernelName = KernelName::Box;
+    fn k<T: Float>(x: T) -> T {
+        if x >= c(-0.5) && x < c(0.5) {
+            T::one()
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+    fn d2<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+}
+
+impl Kernel<2> for Tent {
+    const NAME: KernelName = KernelName::Tent;
+    fn k<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            T::one() - t
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(x: T) -> T {
+        // Half-open pieces so that the weights of one convolution sum to exactly 0.
+        if x >= T::zero() && x < T::one() {
+            -T::one()
+        } else if x >= -T::one() && x < T::zero() {
+            T::one()
+        } else {
+            T::zero()
+        }
+    }
+    fn d2<T: Float>(_x: T) -> T {
+        T::zero()
+    }
+}
+
+impl Kernel<3> for Bspln2 {
+    const NAME: KernelName = KernelName::Bspln2;
+    fn k<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < c(0.5) {
+            c::<T>(0.75) - t * t
+        } else if t < c(1.5) {
+            let a = t - c(1.5);
+            a * a / c(2.0)
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < c(0.5) {
+            c::<T>(-2.0) * x
+        } else if t < c(1.5) {
+            sgn(x) * (t - c(1.5))
+        } else {
+            T::zero()
+        }
+    }
+    fn d2<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < c(0.5) {
+            c(-2.0)
+        } else if t < c(1.5) {
+            T::one()
+        } else {
+            T::zero()
+        }
+    }
+}
+
+impl Kernel<4> for Bspln3 {
+    const NAME: KernelName = KernelName::Bspln3;
+    fn k<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            c::<T>(2.0 / 3.0) + t * t * (c::<T>(-1.0) + t / c(2.0))
+        } else if t < c(2.0) {
+            let a = c::<T>(2.0) - t;
+            a * a * a / c(6.0)
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            x * (c::<T>(-2.0) + c::<T>(1.5) * t)
+        } else if t < c(2.0) {
+            let a = c::<T>(2.0) - t;
+            -sgn(x) * a * a / c(2.0)
+        } else {
+            T::zero()
+        }
+    }
+    fn d2<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            c::<T>(-2.0) + c::<T>(3.0) * t
+        } else if t < c(2.0) {
+            c::<T>(2.0) - t
+        } else {
+            T::zero()
+        }
+    }
+}
+
+impl Kernel<4> for Ctmr {
+    const NAME: KernelName = KernelName::Ctmr;
+    fn k<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            T::one() + t * t * (c::<T>(-2.5) + c::<T>(1.5) * t)
+        } else if t < c(2.0) {
+            c::<T>(2.0) + t * (c::<T>(-4.0) + t * (c::<T>(2.5) - t / c(2.0)))
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            x * (c::<T>(-5.0) + c::<T>(4.5) * t)
+        } else if t < c(2.0) {
+            sgn(x) * (c::<T>(-4.0) + t * (c::<T>(5.0) - c::<T>(1.5) * t))
+        } else {
+            T::zero()
+        }
+    }
+    fn d2<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            c::<T>(-5.0) + c::<T>(9.0) * t
+        } else if t < c(2.0) {
+            c::<T>(5.0) - c::<T>(3.0) * t
+        } else {
+            T::zero()
+        }
+    }
+}
+
+/// Evaluates the polynomial with coefficients `co` (constant first) at `t` (Horner).
+#[inline(always)]
+fn poly<T: Float, const N: usize>(co: [f64; N], t: T) -> T {
+    let mut acc = T::zero();
+    for &k in co.iter().rev() {
+        acc = acc * t + c(k);
+    }
+    acc
+}
+
+impl Kernel<6> for C4Hexic {
+    const NAME: KernelName = KernelName::C4hexic;
+    fn k<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            poly([69. / 80., 0., -23. / 16., 0., 19. / 16., -7. / 12., 1. / 16.], t)
+        } else if t < c(2.0) {
+            poly([3. / 160., 35. / 8., -341. / 32., 10., -147. / 32., 25. / 24., -3. / 32.], t)
+        } else if t < c(3.0) {
+            poly([1539. / 160., -189. / 8., 747. / 32., -12., 109. / 32., -61. / 120., 1. / 32.], t)
+        } else {
+            T::zero()
+        }
+    }
+    fn d1<T: Float>(x: T) -> T {
+        let t = x.abs();
+        let d = if t < T::one() {
+            poly([0., -23. / 8., 0., 19. / 4., -35. / 12., 3. / 8.], t)
+        } else if t < c(2.0) {
+            poly([35. / 8., -341. / 16., 30., -147. / 8., 125. / 24., -9. / 16.], t)
+        } else if t < c(3.0) {
+            poly([-189. / 8., 747. / 16., -36., 109. / 8., -61. / 24., 3. / 16.], t)
+        } else {
+            T::zero()
+        };
+        sgn(x) * d
+    }
+    fn d2<T: Float>(x: T) -> T {
+        let t = x.abs();
+        if t < T::one() {
+            poly([-23. / 8., 0., 57. / 4., -35. / 3., 15. / 8.], t)
+        } else if t < c(2.0) {
+            poly([-341. / 16., 60., -441. / 8., 125. / 6., -45. / 16.], t)
+        } else if t < c(3.0) {
+            poly([747. / 16., -72., 327. / 8., -61. / 6., 15. / 16.], t)
+        } else {
+            T::zero()
+        }
+    }
+}
+
+/// Run-time kernel names (the `-k` option). Parsed case-insensitively.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum KernelName {
+    /// [`Zero`]
+    Zero,
+    /// [`BoxK`]
+    Box,
+    /// [`Tent`]
+    Tent,
+    /// [`Bspln2`]
+    Bspln2,
+    /// [`Bspln3`]
+    Bspln3,
+    /// [`Ctmr`]
+    Ctmr,
+    /// [`C4Hexic`]
+    C4hexic,
+}
+
+impl KernelName {
+    /// Every kernel, in `klist` order.
+    pub const ALL: [KernelName; 7] = [
+        KernelName::Zero,
+        KernelName::Box,
+        KernelName::Tent,
+        KernelName::Bspln2,
+        KernelName::Bspln3,
+        KernelName::Ctmr,
+        KernelName::C4hexic,
+    ];
+
+    /// Canonical lower-case name (what `-k` accepts).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            KernelName::Zero => "zero",
+            KernelName::Box => "box",
+            KernelName::Tent => "tent",
+            KernelName::Bspln2 => "bspln2",
+            KernelName::Bspln3 => "bspln3",
+            KernelName::Ctmr => "ctmr",
+            KernelName::C4hexic => "c4hexic",
+        }
+    }
+
+    /// Display name with a capital, as `klist`/`keval` print it (`Bspln3`).
+    pub fn title(self) -> &'static str {
+        match self {
+            KernelName::Zero => "Zero",
+            KernelName::Box => "Box",
+            KernelName::Tent => "Tent",
+            KernelName::Bspln2 => "Bspln2",
+            KernelName::Bspln3 => "Bspln3",
+            KernelName::Ctmr => "Ctmr",
+            KernelName::C4hexic => "C4hexic",
+        }
+    }
+
+    /// Support (samples per axis).
+    pub fn support(self) -> usize {
+        match self {
+            KernelName::Zero | KernelName::Box => 1,
+            KernelName::Tent => 2,
+            KernelName::Bspln2 => 3,
+            KernelName::Bspln3 | KernelName::Ctmr => 4,
+            KernelName::C4hexic => 6,
+        }
+    }
+
+    /// One-line description for `klist`.
+    pub fn description(self) -> &'static str {
+        match self {
+            KernelName::Zero => "always zero (its own derivative)",
+            KernelName::Box => "nearest neighbour: 1 on [-0.5, 0.5), else 0",
+            KernelName::Tent => "linear interpolation",
+            KernelName::Bspln2 => "quadratic B-spline, C1, approximating",
+            KernelName::Bspln3 => "cubic B-spline, C2, approximating",
+            KernelName::Ctmr => "Catmull-Rom cubic spline, C1, interpolating",
+            KernelName::C4hexic => "C4 hexic (Teem), C4, reproduces quadratics approximately",
+        }
+    }
+
+    /// Evaluates derivative `deriv` (0, 1 or 2) at `x` in f64; higher derivatives are 0
+    /// only for kernels whose second derivative is piecewise constant, so callers limit
+    /// `deriv` to 0..=2.
+    pub fn eval(self, x: f64, deriv: u32) -> f64 {
+        fn go<K: Kernel<S>, const S: usize>(x: f64, d: u32) -> f64 {
+            match d {
+                0 => K::k(x),
+                1 => K::d1(x),
+                _ => K::d2(x),
+            }
+        }
+        match self {
+            KernelName::Zero => go::<Zero, 1>(x, deriv),
+            KernelName::Box => go::<BoxK, 1>(x, deriv),
+            KernelName::Tent => go::<Tent, 2>(x, deriv),
+            KernelName::Bspln2 => go::<Bspln2, 3>(x, deriv),
+            KernelName::Bspln3 => go::<Bspln3, 4>(x, deriv),
+            KernelName::Ctmr => go::<Ctmr, 4>(x, deriv),
+            KernelName::C4hexic => go::<C4Hexic, 6>(x, deriv),
+        }
+    }
+
+    /// Offset of the lowest sample for this support (see [`Kernel::LO`]).
+    pub fn lo(self) -> i32 {
+        let s = self.support() as i32;
+        if s % 2 == 0 {
+            1 - s / 2
+        } else {
+            -((s - 1) / 2)
+        }
+    }
+}
+
+impl fmt::Display for KernelName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for KernelName {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        KernelName::ALL.into_iter().find(|k| k.as_str().eq_ignore_ascii_case(s)).ok_or_else(|| {
+            Error::new(
+                ErrorKind::Name,
+                alloc::format!(
+                    "unknown kernel \"{s}\" (known: zero, box, tent, bspln2, bspln3, ctmr, c4hexic)"
+                ),
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spec_13_3_values() {
+        let e = |k: KernelName, x, d| k.eval(x, d);
+        use KernelName::*;
+        assert_eq!(e(Box, 0.25, 0), 1.0);
+        assert_eq!(e(Box, 0.5, 0), 0.0);
+        assert_eq!(e(Box, -0.5, 0), 1.0);
+        assert_eq!(e(Tent, 0.25, 0), 0.75);
+        assert_eq!(e(Tent, 0.0, 1), -1.0);
+        assert_eq!(e(Tent, -1.0, 1), 1.0);
+        assert_eq!(e(Tent, 1.0, 1), 0.0);
+        assert_eq!(e(Bspln2, 0.25, 0), 0.6875);
+        assert_eq!(e(Bspln2, 1.0, 0), 0.125);
+        assert_eq!(e(Bspln2, 0.75, 1), -0.75);
+        assert!((e(Bspln3, 0.0, 0) - 2.0 / 3.0).abs() < 1e-15);
+        assert!((e(Bspln3, 0.3, 0) - 0.590166667).abs() < 1e-8);
+        assert!((e(Bspln3, 0.3, 1) + 0.465).abs() < 1e-12);
+        assert!((e(Bspln3, 1.5, 0) - 0.0208333333).abs() < 1e-9);
+        assert!((e(Bspln3, 0.25, 2) + 1.25).abs() < 1e-12);
+        assert_eq!(e(Ctmr, 0.5, 0), 0.5625);
+        assert_eq!(e(Ctmr, 0.5, 1), -1.375);
+        assert_eq!(e(Ctmr, 0.5, 2), -0.5);
+        assert_eq!(e(Ctmr, 1.5, 0), -0.0625);
+        assert_eq!(e(Ctmr, 1.5, 1), 0.125);
+        assert!((e(C4hexic, 0.0, 0) - 0.8625).abs() < 1e-12);
+        assert!((e(C4hexic, 0.5, 0) - 0.560091).abs() < 1e-6);
+        assert!((e(C4hexic, 1.0, 0) - 0.0916667).abs() < 1e-6);
+        assert!((e(C4hexic, 2.0, 0) + 0.0229167).abs() < 1e-6);
+    }
+
+    #[test]
+    fn keval_a_order() {
+        let w = Bspln3::weights(0.3);
+        let want = [0.0571667, 0.590167, 0.348167, 0.0045];
+        for (a, b) in w.iter().zip(want) {
+            assert!((a - b).abs() < 1e-6, "{w:?}");
+        }
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for k in KernelName::ALL {
+            assert_eq!(k.as_str().parse::<KernelName>().unwrap(), k);
+            assert_eq!(k.title().parse::<KernelName>().unwrap(), k);
+            assert_eq!(k.lo(), k.lo());
+        }
+        assert!("cubic".parse::<KernelName>().is_err());
+    }
+}

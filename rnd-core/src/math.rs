@@ -1,0 +1,104 @@
+//! The one place that knows where float functions come from.
+//!
+//! `rnd-core` is `#![no_std]`, so the inherent `f64::sqrt` and friends (which live in
+//! `std`) are not available; every transcendental goes through `libm` here.
+
+/// Square root (f64).
+#[inline(always)]
+pub fn sqrt(x: f64) -> f64 {
+    libm::sqrt(x)
+}
+/// Square root (f32).
+#[inline(always)]
+pub fn sqrtf(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+/// Largest integer not above `x` (f64).
+#[inline(always)]
+pub fn floor(x: f64) -> f64 {
+    libm::floor(x)
+}
+/// `x` raised to `y` (f64).
+#[inline(always)]
+pub fn pow(x: f64, y: f64) -> f64 {
+    libm::pow(x, y)
+}
+/// `x` raised to `y` (f32).
+#[inline(always)]
+pub fn powf(x: f32, y: f32) -> f32 {
+    libm::powf(x, y)
+}
+/// Tangent (radians).
+#[inline(always)]
+pub fn tan(x: f64) -> f64 {
+    libm::tan(x)
+}
+/// Sine (radians).
+#[inline(always)]
+pub fn sin(x: f64) -> f64 {
+    libm::sin(x)
+}
+/// Cosine (radians).
+#[inline(always)]
+pub fn cos(x: f64) -> f64 {
+    libm::cos(x)
+}
+/// Arc cosine (radians).
+#[inline(always)]
+pub fn acos(x: f64) -> f64 {
+    libm::acos(x)
+}
+/// e raised to `x`.
+#[inline(always)]
+pub fn exp(x: f64) -> f64 {
+    libm::exp(x)
+}
+/// Round half away from zero.
+#[inline(always)]
+pub fn round(x: f64) -> f64 {
+    libm::round(x)
+}
+
+/// 3-vector helpers on `[f64; 3]` (the geometry type of the crate).
+pub mod v3 {
+    /// Dot product.
+    #[inline(always)]
+    pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+    /// Cross product a × b.
+    #[inline(always)]
+    pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    }
+    /// a − b.
+    #[inline(always)]
+    pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+    /// a + b.
+    #[inline(always)]
+    pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+    }
+    /// s·a.
+    #[inline(always)]
+    pub fn scale(s: f64, a: [f64; 3]) -> [f64; 3] {
+        [s * a[0], s * a[1], s * a[2]]
+    }
+    /// Euclidean length.
+    #[inline(always)]
+    pub fn len(a: [f64; 3]) -> f64 {
+        super::sqrt(dot(a, a))
+    }
+    /// a / |a| (NaNs for a zero vector; callers check first).
+    #[inline(always)]
+    pub fn normalize(a: [f64; 3]) -> [f64; 3] {
+        scale(1.0 / len(a), a)
+    }
+    /// True when all three components are finite.
+    #[inline(always)]
+    pub fn finite(a: [f64; 3]) -> bool {
+        a.iter().all(|x| x.is_finite())
+    }
+}

@@ -1,0 +1,115 @@
+//! What each ray sample measures (SPEC §9.1).
+
+use core::fmt;
+use core::str::FromStr;
+
+use crate::error::{Error, ErrorKind};
+
+/// A probe: the quantity computed at each ray sample. Ordered: a higher probe depends
+/// only on lower ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Probe {
+    /// View-space position (3).
+    PosView,
+    /// World-space position (3).
+    PosWorld,
+    /// Index-space position (3).
+    PosIndex,
+    /// 1 when the convolution is inside the volume, else 0 (1).
+    Inside,
+    /// Reconstructed value (1).
+    Value,
+    /// World-space gradient (3).
+    GradVec,
+    /// Gradient magnitude (1).
+    GradMag,
+    /// LUT colour and corrected opacity (4).
+    Rgba,
+    /// Rgba lit by Blinn-Phong and depth-cued (4).
+    RgbaLit,
+}
+
+impl Probe {
+    /// Every probe in order.
+    pub const ALL: [Probe; 9] = [
+        Probe::PosView,
+        Probe::PosWorld,
+        Probe::PosIndex,
+        Probe::Inside,
+        Probe::Value,
+        Probe::GradVec,
+        Probe::GradMag,
+        Probe::Rgba,
+        Probe::RgbaLit,
+    ];
+    /// Short name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Probe::PosView => "pv",
+            Probe::PosWorld => "pw",
+            Probe::PosIndex => "pi",
+            Probe::Inside => "in",
+            Probe::Value => "v",
+            Probe::GradVec => "gv",
+            Probe::GradMag => "gm",
+            Probe::Rgba => "rgba",
+            Probe::RgbaLit => "rgbalit",
+        }
+    }
+    /// Every accepted spelling.
+    pub fn aliases(self) -> &'static [&'static str] {
+        match self {
+            Probe::PosView => &["pv", "posview"],
+            Probe::PosWorld => &["pw", "posworld"],
+            Probe::PosIndex => &["pi", "posindex"],
+            Probe::Inside => &["in", "inside"],
+            Probe::Value => &["v", "val", "value"],
+            Probe::GradVec => &["gv", "gradvec"],
+            Probe::GradMag => &["gm", "gradmag"],
+            Probe::Rgba => &["c", "rgba"],
+            Probe::RgbaLit => &["cl", "rgbalit"],
+        }
+    }
+    /// Number of output channels.
+    pub fn len(self) -> usize {
+        match self {
+            Probe::PosView | Probe::PosWorld | Probe::PosIndex | Probe::GradVec => 3,
+            Probe::Inside | Probe::Value | Probe::GradMag => 1,
+            Probe::Rgba | Probe::RgbaLit => 4,
+        }
+    }
+    /// True for the probes defined at every sample (positions and inside); the others
+    /// count only where the convolution is inside (SPEC §9.2).
+    pub fn everywhere(self) -> bool {
+        self <= Probe::Inside
+    }
+    /// Whether a convolution is needed.
+    pub fn needs_convo(self) -> bool {
+        self >= Probe::Inside
+    }
+    /// Whether it is a colour probe (needs a LUT).
+    pub fn is_colour(self) -> bool {
+        self >= Probe::Rgba
+    }
+}
+
+impl fmt::Display for Probe {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for Probe {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        let l = s.to_ascii_lowercase();
+        Probe::ALL.into_iter().find(|p| p.aliases().contains(&l.as_str())).ok_or_else(|| {
+            Error::new(
+                ErrorKind::Name,
+                alloc::format!(
+                    "unknown probe \"{s}\" (known: pv pw pi in v gv gm rgba rgbalit)"
+                ),
+            )
+        })
+    }
+}

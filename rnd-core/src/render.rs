@@ -1,0 +1,404 @@
+//! Ray casting: the validated [`RenderSpec`], one ray per pixel, and the run-time →
+//! compile-time dispatch on (voxel type, kernel).
+//!
+//! Probing (what a sample measures) and blending (how samples combine, [`Accum`]) are
+//! separate steps: [`RenderSpec::sample`] fills a probe vector, [`Accum::add`] blends it.
+
+use alloc::vec::Vec;
+
+use crate::blend::{Accum, Blend};
+use crate::camera::{Camera, CameraSpec};
+use crate::convo::{Convo, ConvoSample};
+use crate::error::{Error, ErrorKind, Result};
+use crate::kernel::{Bspln2, Bspln3, BoxK, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
+use crate::light::{blinn_phong, Light, Phong, WorldLights};
+use crate::math;
+use crate::probe::Probe;
+use crate::txf::{Levoy, Lut};
+use crate::volume::Volume;
+use crate::voxel::Voxel;
+
+/// Everything `go` is asked to do, before validation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderParams {
+    /// Camera.
+    pub camera: CameraSpec,
+    /// Distance between sampling planes (`-s`); 0 = one sample on the near plane.
+    pub plane_sep: f64,
+    /// Take one sample on the near plane only (`-s1s`).
+    pub sample_once: bool,
+    /// What to measure.
+    pub probe: Probe,
+    /// How to combine.
+    pub blend: Blend,
+    /// Value of every channel for rays with nothing to blend (`-ov`).
+    pub outside: f32,
+    /// Unit step for opacity correction (`-us`), world units.
+    pub unit_step: f64,
+    /// Early ray termination threshold (`-a1`), in (0, 1]; 1 = off.
+    pub alpha_near1: f32,
+    /// Blinn-Phong parameters.
+    pub phong: Phong,
+    /// Depth-cue colour at the near plane.
+    pub dcn: [f32; 3],
+    /// Depth-cue colour at the far plane.
+    pub dcf: [f32; 3],
+    /// Append a per-ray time channel (ms).
+    pub time: bool,
+}
+
+impl RenderParams {
+    /// Parameters with the SPEC §12 defaults and the given camera.
+    pub fn new(camera: CameraSpec) -> Self {
+        RenderParams {
+            camera,
+            plane_sep: 0.1,
+            sample_once: false,
+            probe: Probe::Value,
+            blend: Blend::Max,
+            outside: 0.0,
+            unit_step: 1.0,
+            alpha_near1: 1.0,
+            phong: Phong::default(),
+            dcn: [1.0; 3],
+            dcf: [1.0; 3],
+            time: false,
+        }
+    }
+}
+
+/// A validated render description with everything the sample loop reads precomputed.
+#[derive(Debug, Clone)]
+pub struct RenderSpec<'a> {
+    /// The parameters.
+    pub params: RenderParams,
+    /// The camera frame.
+    pub camera: Camera,
+    lut: Option<&'a Lut>,
+    levoy: Option<&'a Levoy>,
+    lights: WorldLights,
+    /// Output channels per pixel (probe length, +1 with time).
+    pub channels: usize,
+    need_grad: bool,
+    once: bool,
+}
+
+fn rerr(msg: alloc::string::String) -> Error {
+    Error::new(ErrorKind::Render, msg)
+}
+
+impl<'a> RenderSpec<'a> {
+    /// Validates once: camera, step sizes, thresholds, probe/blend pairing and the
+    /// files each probe needs.
+    pub fn new(
+        params: RenderParams,
+        lut: Option<&'a Lut>,
+        levoy: Option<&'a Levoy>,
+        lights: &[Light],
+    ) -> Result<Self> {
+        use alloc::format;
+        let camera = Camera::new(params.camera)?;
+        let once = params.sample_once || params.plane_sep == 0.0;
+        if !params.plane_sep.is_finite() || params.plane_sep < 0.0 {
+            return Err(rerr(format!("-s: plane separation {} must be >= 0", params.plane_sep)));
+        }
+        if !(params.unit_step.is_finite() && params.unit_step > 0.0) {
+            return Err(rerr(format!("-us: unit step {} must be finite and > 0", params.unit_step)));
+        }
+        if !(params.alpha_near1 > 0.0 && params.alpha_near1 <= 1.0) {
+            return Err(rerr(format!("-a1: alphaNear1 {} must be in (0, 1]", params.alpha_near1)));
+        }
+        let ph = params.phong;
+        if ![ph.ka, ph.kd, ph.ks, ph.p].iter().all(|x| x.is_finite()) {
+            return Err(rerr(format!("-ph: need finite values (got {} {} {} {})", ph.ka, ph.kd, ph.ks, ph.p)));
+        }
+        if params.dcn.iter().chain(params.dcf.iter()).any(|x| !x.is_finite()) {
+            return Err(rerr("-dcn/-dcf: depth-cue colours must be finite".into()));
+        }
+        if params.blend == Blend::Over && !params.probe.is_colour() {
+            return Err(rerr(format!(
+                "-b over: with over blend, must probe rgba or rgbalit (not {})",
+                params.probe
+            )));
+        }
+        if params.probe.is_colour() && lut.is_none() {
+            return Err(rerr(format!("-p {}: needs a LUT (-lut)", params.probe)));
+        }
+        if params.probe == Probe::RgbaLit && lights.is_empty() {
+            return Err(rerr("-p rgbalit: needs lights (-lit)".into()));
+        }
+        let need_grad = params.probe == Probe::GradVec
+            || params.probe == Probe::GradMag
+            || params.probe == Probe::RgbaLit
+            || (params.probe == Probe::Rgba && levoy.is_some());
+        let channels = params.probe.len() + usize::from(params.time);
+        let lights = WorldLights::new(lights, &camera);
+        Ok(RenderSpec { params, camera, lut, levoy, lights, channels, need_grad, once })
+    }
+
+    /// Image width and height.
+    pub fn size(&self) -> [u32; 2] {
+        self.camera.spec.size
+    }
+
+    /// Whether the gradient is computed at each sample.
+    pub fn needs_gradient(&self) -> bool {
+        self.need_grad
+    }
+}
+
+/// Geometry of one ray (all f64).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayGeom {
+    /// View-space start on the near plane.
+    pub start_v: [f64; 3],
+    /// View-space step between planes.
+    pub step_v: [f64; 3],
+    /// World-space start.
+    pub start_w: [f64; 3],
+    /// World-space step.
+    pub step_w: [f64; 3],
+    /// Length of one step (world units).
+    pub step_len: f64,
+    /// Unit direction from a sample towards the eye (world).
+    pub to_eye: [f32; 3],
+}
+
+/// Everything known about one sample, for `-db` tracing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleInfo {
+    /// Sample number along the ray.
+    pub k: u32,
+    /// View-space position.
+    pub pos_v: [f64; 3],
+    /// World-space position.
+    pub pos_w: [f64; 3],
+    /// The convolution (index position, inside, value, gradients).
+    pub convo: ConvoSample,
+    /// The probe's value at this sample.
+    pub probe: [f32; 4],
+    /// Whether this sample was blended.
+    pub counted: bool,
+    /// The running blend after this sample.
+    pub accum: Accum,
+}
+
+impl RenderSpec<'_> {
+    /// Geometry of the ray through pixel (hi, vi).
+    pub fn ray_geom(&self, hi: u32, vi: u32) -> RayGeom {
+        let cam = &self.camera;
+        let ps = if self.once { 0.0 } else { self.params.plane_sep };
+        let (start_v, step_v) = cam.ray(hi, vi, ps);
+        // Direction to the eye from a unit-separation step (valid also when ps = 0).
+        let (_, dir_v) = cam.ray(hi, vi, 1.0);
+        let dir_w = cam.vtow.vector(dir_v);
+        let dl = math::v3::len(dir_w);
+        let to_eye = [(-dir_w[0] / dl) as f32, (-dir_w[1] / dl) as f32, (-dir_w[2] / dl) as f32];
+        let step_w = cam.vtow.vector(step_v);
+        RayGeom {
+            start_v,
+            step_v,
+            start_w: cam.vtow.point(start_v),
+            step_w,
+            step_len: math::v3::len(step_w),
+            to_eye,
+        }
+    }
+
+    /// Computes the probe at one sample. Returns whether the sample is blended.
+    #[inline(always)]
+    fn probe(
+        &self,
+        pos_v: &[f64; 3],
+        pos_w: &[f64; 3],
+        cs: &ConvoSample,
+        g: &RayGeom,
+        out: &mut [f32; 4],
+    ) -> bool {
+        let p = &self.params;
+        let f3 = |a: &[f64; 3], out: &mut [f32; 4]| {
+            out[0] = a[0] as f32;
+            out[1] = a[1] as f32;
+            out[2] = a[2] as f32;
+        };
+        match p.probe {
+            Probe::PosView => f3(pos_v, out),
+            Probe::PosWorld => f3(pos_w, out),
+            Probe::PosIndex => f3(&cs.pos_i, out),
+            Probe::Inside => out[0] = if cs.inside { 1.0 } else { 0.0 },
+            _ if !cs.inside => return false,
+            Probe::Value => out[0] = cs.value,
+            Probe::GradVec => out[..3].copy_from_slice(&cs.grad_w),
+            Probe::GradMag => out[0] = gmag(&cs.grad_w),
+            Probe::Rgba | Probe::RgbaLit => {
+                let Some(lut) = self.lut else { return false };
+                let e = lut.lookup(cs.value);
+                let mut a = e[3];
+                if let Some(lev) = self.levoy {
+                    a *= lev.opacity(cs.value, gmag(&cs.grad_w));
+                }
+                let a = a.clamp(0.0, 1.0);
+                let a = if a == 0.0 || a == 1.0 {
+                    a
+                } else {
+                    let ex = (g.step_len / p.unit_step) as f32;
+                    1.0 - math::powf(1.0 - a, ex)
+                };
+                let mut rgb = [e[0], e[1], e[2]];
+                if p.probe == Probe::RgbaLit {
+                    rgb = blinn_phong(&p.phong, &self.lights, rgb, cs.grad_w, g.to_eye);
+                    let cam = &self.camera;
+                    let tau = ((-pos_v[2] - cam.ncv) / (cam.fcv - cam.ncv)) as f32;
+                    for c in 0..3 {
+                        rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+                    }
+                }
+                *out = [rgb[0], rgb[1], rgb[2], a];
+            }
+        }
+        true
+    }
+
+    /// Casts the ray through pixel (hi, vi) and writes its probe-length result to `out`
+    /// (the time channel, if any, is the caller's). `trace`, when given, sees every
+    /// sample.
+    #[inline]
+    pub fn cast<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        convo: &mut Convo<'_, V, K, S>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+        mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
+    ) {
+        let p = &self.params;
+        let g = self.ray_geom(hi, vi);
+        let wtoi = *convo.volume().wtoi();
+        let start_i = wtoi.point(g.start_w);
+        let step_i = wtoi.vector(g.step_w);
+        let needs_convo = p.probe.needs_convo();
+        let mut acc = Accum::new(p.blend, p.probe.len());
+        let over = p.blend == Blend::Over;
+        let fcv = self.camera.fcv;
+        let mut k: u32 = 0;
+        loop {
+            let kf = k as f64;
+            let at = |s: &[f64; 3], d: &[f64; 3]| {
+                [s[0] + kf * d[0], s[1] + kf * d[1], s[2] + kf * d[2]]
+            };
+            let pos_v = at(&g.start_v, &g.step_v);
+            if k > 0 && -pos_v[2] > fcv {
+                break;
+            }
+            let pos_w = at(&g.start_w, &g.step_w);
+            let pos_i = at(&start_i, &step_i);
+            let cs = if needs_convo {
+                convo.eval_index(pos_i, self.need_grad)
+            } else {
+                ConvoSample { pos_i, ..ConvoSample::default() }
+            };
+            let mut pr = [0.0f32; 4];
+            let counted = self.probe(&pos_v, &pos_w, &cs, &g, &mut pr);
+            if counted {
+                acc.add(&pr);
+            }
+            if let Some(t) = trace.as_deref_mut() {
+                t(&SampleInfo { k, pos_v, pos_w, convo: cs, probe: pr, counted, accum: acc });
+            }
+            if self.once {
+                break;
+            }
+            if over && acc.acc[3] > p.alpha_near1 {
+                acc.acc[3] = 1.0;
+                break;
+            }
+            k += 1;
+        }
+        acc.finish(p.outside, out);
+    }
+
+    /// Renders image rows `rows` into `out` (`channels` floats per pixel, rows
+    /// consecutive). `clock`, when given, returns milliseconds and fills the time channel.
+    pub fn render_rows<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        convo: &mut Convo<'_, V, K, S>,
+        rows: core::ops::Range<u32>,
+        out: &mut [f32],
+        clock: Option<&dyn Fn() -> f64>,
+    ) {
+        let w = self.size()[0] as usize;
+        let ch = self.channels;
+        let plen = self.params.probe.len();
+        debug_assert_eq!(out.len(), rows.len() * w * ch);
+        for (r, vi) in rows.enumerate() {
+            for hi in 0..w {
+                let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
+                let t0 = clock.map(|c| c());
+                self.cast(convo, hi as u32, vi, &mut px[..plen], None);
+                if let (Some(c), Some(t0)) = (clock, t0) {
+                    px[plen] = (c() - t0) as f32;
+                }
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn gmag(g: &[f32; 3]) -> f32 {
+    math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+}
+
+/// A volume of either voxel type.
+#[derive(Debug, Clone, Copy)]
+pub enum AnyVolume<'a> {
+    /// 32-bit float voxels.
+    F32(Volume<'a, f32>),
+    /// Signed 16-bit voxels.
+    I16(Volume<'a, i16>),
+}
+
+/// Work to run on a concrete (voxel, kernel) pair; see [`dispatch`].
+pub trait ConvoTask {
+    /// What the task returns.
+    type Output;
+    /// Runs with the volume and kernel types known at compile time.
+    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Self::Output;
+}
+
+/// The one run-time dispatch point: (voxel type, kernel name) → monomorphized code.
+pub fn dispatch<T: ConvoTask>(vol: AnyVolume<'_>, kernel: KernelName, task: T) -> T::Output {
+    macro_rules! by_kernel {
+        ($v:expr) => {
+            match kernel {
+                KernelName::Zero => task.run::<_, Zero, 1>($v),
+                KernelName::Box => task.run::<_, BoxK, 1>($v),
+                KernelName::Tent => task.run::<_, Tent, 2>($v),
+                KernelName::Bspln2 => task.run::<_, Bspln2, 3>($v),
+                KernelName::Bspln3 => task.run::<_, Bspln3, 4>($v),
+                KernelName::Ctmr => task.run::<_, Ctmr, 4>($v),
+                KernelName::C4hexic => task.run::<_, C4Hexic, 6>($v),
+            }
+        };
+    }
+    match vol {
+        AnyVolume::F32(v) => by_kernel!(v),
+        AnyVolume::I16(v) => by_kernel!(v),
+    }
+}
+
+/// Renders the whole image on the calling thread into a new buffer (W·H·channels floats,
+/// row-major from the top).
+pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> Vec<f32> {
+    struct Whole<'s, 'a>(&'s RenderSpec<'a>);
+    impl ConvoTask for Whole<'_, '_> {
+        type Output = Vec<f32>;
+        fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
+            let [w, h] = self.0.size();
+            let mut out = alloc::vec![0.0f32; w as usize * h as usize * self.0.channels];
+            let mut convo = Convo::<V, K, S>::new(vol);
+            self.0.render_rows(&mut convo, 0..h, &mut out, None);
+            out
+        }
+    }
+    dispatch(vol, kernel, Whole(spec))
+}

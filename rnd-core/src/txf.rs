@@ -1,0 +1,440 @@
+//! Transfer functions (SPEC §8): control-point maps in rgb / hsv / alpha, HSV→RGB, LUT
+//! generation and lookup, and Levoy (1988) iso-contour opacity.
+
+use alloc::vec::Vec;
+use core::fmt;
+use core::str::FromStr;
+
+use crate::error::{Error, ErrorKind, Result};
+use crate::math;
+
+/// The space of a control-point file (`#space:=...` or `#range:=...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TxfSpace {
+    /// Red, green, blue in [0, 1].
+    Rgb,
+    /// Hue, saturation, value in [0, 1] (hue wraps).
+    Hsv,
+    /// One opacity.
+    Alpha,
+}
+
+impl TxfSpace {
+    /// Number of values per control point after the position.
+    pub fn channels(self) -> usize {
+        match self {
+            TxfSpace::Alpha => 1,
+            _ => 3,
+        }
+    }
+    /// Name as written in files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TxfSpace::Rgb => "rgb",
+            TxfSpace::Hsv => "hsv",
+            TxfSpace::Alpha => "alpha",
+        }
+    }
+}
+
+impl fmt::Display for TxfSpace {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for TxfSpace {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "rgb" => Ok(TxfSpace::Rgb),
+            "hsv" => Ok(TxfSpace::Hsv),
+            "alpha" => Ok(TxfSpace::Alpha),
+            _ => Err(Error::new(
+                ErrorKind::Name,
+                alloc::format!("unknown space \"{s}\" (need rgb, hsv or alpha)"),
+            )),
+        }
+    }
+}
+
+/// HSV → RGB (hexcone, SPEC §8.2). All components in [0, 1]; H = 1 behaves like H = 0.
+pub fn hsv_to_rgb(hsv: [f64; 3]) -> [f64; 3] {
+    let [h, s, v] = hsv;
+    if s == 0.0 {
+        return [v, v, v];
+    }
+    let h = 6.0 * (h - math::floor(h));
+    let i = math::floor(h);
+    let f = h - i;
+    let p = v * (1.0 - s);
+    let q = v * (1.0 - s * f);
+    let t = v * (1.0 - s * (1.0 - f));
+    match i as i32 {
+        0 | 6 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
+/// A validated control-point transfer function.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Txf {
+    space: TxfSpace,
+    /// Control point positions, strictly increasing.
+    xs: Vec<f64>,
+    /// Control point values (1 or 3 used, per `space`).
+    vals: Vec<[f64; 3]>,
+}
+
+impl Txf {
+    /// Builds from rows `x c0 [c1 c2]`. Positions must be finite and strictly increasing,
+    /// values finite; at least one row.
+    pub fn new(space: TxfSpace, rows: &[&[f64]]) -> Result<Txf> {
+        let nc = space.channels() + 1;
+        if rows.is_empty() {
+            return Err(Error::new(ErrorKind::Txf, "transfer function has no control points"));
+        }
+        let mut xs = Vec::with_capacity(rows.len());
+        let mut vals = Vec::with_capacity(rows.len());
+        for (i, r) in rows.iter().enumerate() {
+            if r.len() != nc {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!(
+                        "row {i} has {} columns; space {space} needs {nc} (position + {})",
+                        r.len(),
+                        nc - 1
+                    ),
+                ));
+            }
+            if r.iter().any(|x| !x.is_finite()) {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!("row {i} has a non-finite number"),
+                ));
+            }
+            if let Some(&last) = xs.last() {
+                if r[0] <= last {
+                    return Err(Error::new(
+                        ErrorKind::Txf,
+                        alloc::format!(
+                            "control points not strictly increasing: row {i} at {} after {last}",
+                            r[0]
+                        ),
+                    ));
+                }
+            }
+            xs.push(r[0]);
+            let mut v = [0.0; 3];
+            v[..nc - 1].copy_from_slice(&r[1..]);
+            vals.push(v);
+        }
+        Ok(Txf { space, xs, vals })
+    }
+
+    /// The space.
+    pub fn space(&self) -> TxfSpace {
+        self.space
+    }
+    /// First and last control-point positions (the txf's own domain).
+    pub fn domain(&self) -> (f64, f64) {
+        (self.xs[0], self.xs[self.xs.len() - 1])
+    }
+
+    /// Evaluates at `x`: clamped ends, piecewise linear between points; HSV interpolated
+    /// (hue along the shorter arc, D7) and returned converted to RGB. For alpha, only
+    /// element 0 is meaningful.
+    pub fn eval(&self, x: f64) -> [f64; 3] {
+        let raw = self.eval_raw(x);
+        match self.space {
+            TxfSpace::Hsv => hsv_to_rgb(raw),
+            _ => raw,
+        }
+    }
+
+    /// Evaluates without HSV→RGB conversion.
+    pub fn eval_raw(&self, x: f64) -> [f64; 3] {
+        let n = self.xs.len();
+        if x.is_nan() {
+            return [f64::NAN; 3];
+        }
+        if x <= self.xs[0] {
+            return self.vals[0];
+        }
+        if x >= self.xs[n - 1] {
+            return self.vals[n - 1];
+        }
+        // first index with xs[i] > x
+        let hi = self.xs.partition_point(|&p| p <= x);
+        let lo = hi - 1;
+        let t = (x - self.xs[lo]) / (self.xs[hi] - self.xs[lo]);
+        let (a, b) = (self.vals[lo], self.vals[hi]);
+        let mut out = [0.0; 3];
+        for c in 0..3 {
+            out[c] = a[c] + t * (b[c] - a[c]);
+        }
+        if self.space == TxfSpace::Hsv {
+            let (h0, mut h1) = (a[0], b[0]);
+            let d = h1 - h0;
+            // Shorter arc; exactly 0.5 apart goes toward increasing hue (D7).
+            if d > 0.5 {
+                h1 -= 1.0;
+            } else if d <= -0.5 {
+                h1 += 1.0;
+            }
+            let h = h0 + t * (h1 - h0);
+            out[0] = h - math::floor(h);
+        }
+        out
+    }
+}
+
+/// A 1-D RGBA lookup table over [vmin, vmax] with cell-centred entries (SPEC §3.4, §8.3).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lut {
+    vmin: f64,
+    vmax: f64,
+    rgba: Vec<[f32; 4]>,
+}
+
+impl Lut {
+    /// Wraps existing entries. Fails unless vmin < vmax are finite and there is at least
+    /// one entry.
+    pub fn new(vmin: f64, vmax: f64, rgba: Vec<[f32; 4]>) -> Result<Lut> {
+        if !(vmin.is_finite() && vmax.is_finite() && vmin < vmax) {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!("LUT domain [{vmin}, {vmax}] needs finite min < max"),
+            ));
+        }
+        if rgba.is_empty() {
+            return Err(Error::new(ErrorKind::Txf, "LUT has no entries"));
+        }
+        Ok(Lut { vmin, vmax, rgba })
+    }
+
+    /// Generates a LUT of `len` entries over [vmin, vmax] (SPEC §8.3). `ctxf` must be in
+    /// rgb/hsv, `atxf` in alpha; a missing txf gives 1. `crs`/`ars` rescale each txf's own
+    /// domain onto the LUT domain (an error without that txf).
+    pub fn generate(
+        ctxf: Option<&Txf>,
+        atxf: Option<&Txf>,
+        crs: bool,
+        ars: bool,
+        len: usize,
+        vmin: f64,
+        vmax: f64,
+    ) -> Result<Lut> {
+        if len == 0 {
+            return Err(Error::new(ErrorKind::Txf, "LUT length must be > 0"));
+        }
+        if !(vmin.is_finite() && vmax.is_finite() && vmin < vmax) {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!("-mm: need finite min < max (got {vmin} {vmax})"),
+            ));
+        }
+        if let Some(c) = ctxf {
+            if c.space == TxfSpace::Alpha {
+                return Err(Error::new(ErrorKind::Txf, "colour txf must be in space rgb or hsv"));
+            }
+        } else if crs {
+            return Err(Error::new(ErrorKind::Txf, "can't rescale colour without a colour txf"));
+        }
+        if let Some(a) = atxf {
+            if a.space != TxfSpace::Alpha {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!("opacity txf must be in space alpha, not {}", a.space),
+                ));
+            }
+        } else if ars {
+            return Err(Error::new(ErrorKind::Txf, "can't rescale opacity without an opacity txf"));
+        }
+        let range = |t: Option<&Txf>, rs: bool| match (t, rs) {
+            (Some(t), true) => t.domain(),
+            _ => (vmin, vmax),
+        };
+        let (c0, c1) = range(ctxf, crs);
+        let (a0, a1) = range(atxf, ars);
+        let mut rgba = Vec::new();
+        rgba.try_reserve_exact(len)
+            .map_err(|_| Error::new(ErrorKind::Txf, "LUT length too large to allocate"))?;
+        for i in 0..len {
+            let a = (i as f64 + 0.5) / len as f64;
+            let rgb = match ctxf {
+                Some(t) => t.eval(c0 + a * (c1 - c0)),
+                None => [1.0; 3],
+            };
+            let al = match atxf {
+                Some(t) => t.eval(a0 + a * (a1 - a0))[0],
+                None => 1.0,
+            };
+            rgba.push([rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, al as f32]);
+        }
+        Ok(Lut { vmin, vmax, rgba })
+    }
+
+    /// Domain minimum.
+    pub fn vmin(&self) -> f64 {
+        self.vmin
+    }
+    /// Domain maximum.
+    pub fn vmax(&self) -> f64 {
+        self.vmax
+    }
+    /// The entries.
+    pub fn entries(&self) -> &[[f32; 4]] {
+        &self.rgba
+    }
+
+    /// Nearest cell-centred entry for value `v` (SPEC §8.4): clamped to the domain, no
+    /// interpolation. NaN maps to entry 0.
+    #[inline]
+    pub fn lookup(&self, v: f32) -> [f32; 4] {
+        self.rgba[self.index(v as f64)]
+    }
+
+    /// Entry index for `v`.
+    #[inline]
+    pub fn index(&self, v: f64) -> usize {
+        let len = self.rgba.len();
+        let v = v.clamp(self.vmin, self.vmax);
+        let f = (v - self.vmin) / (self.vmax - self.vmin) * len as f64;
+        let i = math::floor(f);
+        if i >= 0.0 {
+            (i as usize).min(len - 1)
+        } else {
+            0
+        }
+    }
+}
+
+/// Levoy iso-contour opacity functions: a set of (isovalue v, thickness r, max opacity a)
+/// (SPEC §3.5, §8.5).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Levoy {
+    items: Vec<[f32; 3]>,
+}
+
+impl Levoy {
+    /// From (v, r, a) triples: all finite, r > 0, a ≥ 0, at least one.
+    pub fn new(items: Vec<[f32; 3]>) -> Result<Levoy> {
+        if items.is_empty() {
+            return Err(Error::new(ErrorKind::Txf, "Levoy file has no iso-contours"));
+        }
+        for (i, it) in items.iter().enumerate() {
+            if it.iter().any(|x| !x.is_finite()) {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!("Levoy row {i}: non-finite number"),
+                ));
+            }
+            if !(it[1] > 0.0) {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!("Levoy row {i}: thickness {} must be > 0", it[1]),
+                ));
+            }
+            if it[2] < 0.0 {
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    alloc::format!("Levoy row {i}: opacity {} must be >= 0", it[2]),
+                ));
+            }
+        }
+        Ok(Levoy { items })
+    }
+
+    /// The (v, r, a) triples.
+    pub fn items(&self) -> &[[f32; 3]] {
+        &self.items
+    }
+
+    /// Combined opacity 1 − Π(1 − αₖ) at value `f` and gradient magnitude `gm` (may
+    /// exceed 1 when some a > 1; clamping is the caller's).
+    #[inline]
+    pub fn opacity(&self, f: f32, gm: f32) -> f32 {
+        let mut transp = 1.0f32;
+        for &[v, r, a] in &self.items {
+            let ak = if gm == 0.0 {
+                if f == v {
+                    a
+                } else {
+                    0.0
+                }
+            } else {
+                let d = (f - v).abs();
+                let w = r * gm;
+                if d < w {
+                    a * (1.0 - d / w)
+                } else {
+                    0.0
+                }
+            };
+            transp *= 1.0 - ak;
+        }
+        1.0 - transp
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hsv_checks() {
+        let a = hsv_to_rgb([0.9, 1.0, 1.0]);
+        assert!((a[0] - 1.0).abs() < 1e-12 && a[1].abs() < 1e-12 && (a[2] - 0.6).abs() < 1e-12);
+        let b = hsv_to_rgb([0.95, 0.875, 0.95]);
+        let w = [0.95, 0.11875, 0.368125];
+        for c in 0..3 {
+            assert!((b[c] - w[c]).abs() < 1e-12, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn lgen_8_alphas() {
+        let rows: [&[f64]; 4] = [&[0.0, 0.0], &[0.8, 0.0], &[0.9, 1.0], &[1.0, 1.0]];
+        let a = Txf::new(TxfSpace::Alpha, &rows).unwrap();
+        let lut = Lut::generate(None, Some(&a), false, false, 8, 0.0, 1.0).unwrap();
+        let al: Vec<f32> = lut.entries().iter().map(|e| e[3]).collect();
+        let want = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.125, 1.0];
+        for (x, y) in al.iter().zip(want) {
+            assert!((x - y).abs() < 1e-6, "{al:?}");
+        }
+    }
+
+    #[test]
+    fn levoy_examples() {
+        let l = Levoy::new(alloc::vec![[0.6, 0.035, 0.1], [0.8, 0.035, 0.2], [0.95, 0.035, 1.3]])
+            .unwrap();
+        let cases = [
+            (0.6, 1.0, 0.1),
+            (0.62, 1.0, 0.0428571),
+            (0.8, 2.0, 0.2),
+            (0.95, 1.0, 1.3),
+            (0.96, 1.0, 0.928571),
+            (0.7, 1.0, 0.0),
+        ];
+        for (f, g, want) in cases {
+            let o = l.opacity(f, g);
+            assert!((o - want).abs() < 2e-5, "levoy({f},{g}) = {o}, want {want}");
+        }
+    }
+
+    #[test]
+    fn hue_shorter_arc() {
+        let rows: [&[f64]; 2] = [&[0.0, 0.9, 1.0, 1.0], &[1.0, 0.1, 1.0, 1.0]];
+        let t = Txf::new(TxfSpace::Hsv, &rows).unwrap();
+        let h = t.eval_raw(0.5)[0];
+        assert!(h.abs() < 1e-12 || (h - 1.0).abs() < 1e-12, "{h}");
+        let rows: [&[f64]; 2] = [&[0.0, 0.0, 1.0, 1.0], &[1.0, 0.5, 1.0, 1.0]];
+        let t = Txf::new(TxfSpace::Hsv, &rows).unwrap();
+        assert!((t.eval_raw(0.5)[0] - 0.25).abs() < 1e-12);
+    }
+}
