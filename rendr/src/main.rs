@@ -1,1 +1,65 @@
-fn main() {}
+//! `rendr`: a direct volume renderer. A thin command-line front end over `rnd-core` and
+//! `rnd-std`: one sub-command per file under `cmd/`.
+
+mod args;
+mod cmd;
+mod fmt;
+
+use std::process::ExitCode;
+
+use args::ArgError;
+
+fn list_commands() -> String {
+    let mut s = String::from(
+        "rendr: a direct volume renderer (ray casting through a convolution-reconstructed volume)\n\
+         Usage: rendr <command> [options]; \"rendr <command> --help\" for a command's options\n\n",
+    );
+    let w = cmd::COMMANDS.iter().map(|c| c.spec.name.len()).max().unwrap_or(0);
+    for c in cmd::COMMANDS {
+        s.push_str(&format!(" rendr {:w$} ... {}\n", c.spec.name, c.spec.about));
+    }
+    s
+}
+
+fn main() -> ExitCode {
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    let Some(name) = argv.first() else {
+        print!("{}", list_commands());
+        return ExitCode::SUCCESS;
+    };
+    if name == "--help" || name == "-h" || name == "help" {
+        print!("{}", list_commands());
+        return ExitCode::SUCCESS;
+    }
+    if name == "--version" || name == "-V" {
+        println!("rendr {}", env!("CARGO_PKG_VERSION"));
+        return ExitCode::SUCCESS;
+    }
+    let Some(c) = cmd::find(name) else {
+        eprintln!("rendr: unknown command \"{name}\" (run \"rendr\" alone for the list)");
+        return ExitCode::from(1);
+    };
+    let parsed = match args::parse(c.spec, &argv[1..]) {
+        Ok(a) => a,
+        Err(ArgError::Help) => {
+            print!("{}", args::help(c.spec));
+            return ExitCode::SUCCESS;
+        }
+        Err(ArgError::Usage(_)) => {
+            eprintln!("{}", args::usage(c.spec));
+            return ExitCode::from(1);
+        }
+        Err(ArgError::Bad(m)) => {
+            eprintln!("rendr {}: {m}", c.spec.name);
+            return ExitCode::from(1);
+        }
+    };
+    match (c.run)(&parsed) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("rendr {}: {msg}", c.spec.name);
+            ExitCode::from(1)
+        }
+    }
+}

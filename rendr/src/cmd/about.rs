@@ -1,0 +1,40 @@
+//! `rendr about`: what rendr is and how it was built.
+
+use crate::args::{Args, CmdSpec};
+
+pub static SPEC: CmdSpec = CmdSpec {
+    name: "about",
+    about: "information about this program and how it was built",
+    info: "Prints what rendr is, its version, and facts about this build.",
+    response_files: false,
+    opts: &[],
+    pos: &[],
+};
+
+pub fn run(_a: &Args) -> anyhow::Result<()> {
+    let verbose = std::env::var("RND_VERBOSE").ok().and_then(|v| v.parse::<i32>().ok()).unwrap_or(0);
+    println!(
+        "rendr {}: a direct volume renderer.\n\
+         \n\
+         rendr casts one ray per pixel through a 3-D scalar volume (16-bit or float\n\
+         voxels, NRRD files), reconstructs values and gradients by separable 3-D\n\
+         convolution (box, tent, bspln2, bspln3, ctmr, c4hexic), and reduces what\n\
+         each ray probes (positions, value, gradient, LUT colour, Blinn-Phong lit\n\
+         colour) with a blend (max, sum, mean, over). It re-implements the \"rendr\"\n\
+         of the UChicago SciVis 2017 course (project 3 \"p3rendr\", and project 4,\n\
+         multi-threaded and fast) in Rust, and works in pipelines with Teem's unu.\n\
+         \n\
+         Commands: run \"rendr\" alone for the list; \"rendr <cmd> --help\" for options.\n\
+         \n\
+         Build: {} build, {}-bit {}, debug assertions {}; geometry in f64, convolution\n\
+         and blending in f32 (\"real == float\", like the reference).\n\
+         Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.",
+        env!("CARGO_PKG_VERSION"),
+        if cfg!(debug_assertions) { "debug" } else { "release" },
+        usize::BITS,
+        std::env::consts::ARCH,
+        if cfg!(debug_assertions) { "on" } else { "off" },
+        rnd_std::parallel::default_threads(),
+    );
+    Ok(())
+}

@@ -1,0 +1,209 @@
+//! `rendr go`: render a volume.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use rnd_core::blend::Blend;
+use rnd_core::convo::Convo;
+use rnd_core::kernel::{Kernel, KernelName};
+use rnd_core::light::Phong;
+use rnd_core::probe::Probe;
+use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::volume::Volume;
+use rnd_core::voxel::Voxel;
+use rnd_std::image_out::{write_image, Image};
+
+use crate::args::{def, flag, opt, parse_named, req, Args, CmdSpec};
+use crate::fmt::{g6, list6};
+
+pub static SPEC: CmdSpec = CmdSpec {
+    name: "go",
+    about: "render a volume by ray casting",
+    info: "Casts one ray per pixel from the near clipping plane through sampling planes -s \
+           apart until past the far plane; at each sample the volume is reconstructed with \
+           the kernel -k and the probe -p is measured; the blend -b reduces the samples of \
+           a ray to the pixel. Output: NRRD of floats, channel axis first (sizes C W H), or \
+           an 8-bit PNG when -o ends in .png (one channel quantized over its range or -q; \
+           RGBA composited over black).\n\
+           Probes: pv pw pi (positions: view, world, index), in (inside), v (value), gv \
+           (gradient vector), gm (gradient magnitude), rgba (LUT colour and opacity), \
+           rgbalit (rgba lit by Blinn-Phong, depth-cued). Blends: max sum mean over (over \
+           needs rgba or rgbalit).",
+    response_files: true,
+    opts: &[
+        req(&["i", "-input"], 1, "vol", "input volume"),
+        req(&["k", "-kern"], 1, "kernel", "reconstruction kernel (see \"rendr klist\")"),
+        req(&["fr"], 3, "x y z", "look-from point"),
+        req(&["at"], 3, "x y z", "look-at point"),
+        req(&["up"], 3, "x y z", "up direction"),
+        req(&["nc"], 1, "dist", "near clipping plane, relative to look-at"),
+        req(&["fc"], 1, "dist", "far clipping plane, relative to look-at"),
+        req(&["fov"], 1, "angle", "vertical field of view, in degrees"),
+        req(&["sz"], 2, "horz vert", "image size in pixels"),
+        flag(&["ortho"], "orthographic instead of perspective projection"),
+        def(&["s", "-planesep"], 1, "0.1", "sep", "distance between sampling planes (0: one sample on the near plane)"),
+        flag(&["s1s", "-sampleonce"], "take one sample on the near plane only"),
+        def(&["p", "-probe"], 1, "val", "probe", "what to measure at each sample"),
+        def(&["b", "-blend"], 1, "max", "blend", "how to combine the samples of a ray"),
+        def(&["ov", "-outsideval"], 1, "0", "val", "value for rays with nothing to blend (may be nan)"),
+        opt(&["nt"], 1, "threads", "number of threads (0 or 1: no extra threads; default: all cores)"),
+        def(&["us"], 1, "1", "unitstep", "unit step length for opacity correction (world units)"),
+        def(&["a1"], 1, "1", "alphanear1", "early ray termination opacity, in (0,1]; 1 = off"),
+        opt(&["lut"], 1, "lut", "lookup table from \"rendr lgen\" (needed for rgba, rgbalit)"),
+        opt(&["lev"], 1, "levoy", "Levoy iso-contour opacities (v r a per line)"),
+        opt(&["lit"], 1, "lights", "light file (needed for rgbalit)"),
+        def(&["ph"], 4, "0.2 0.8 0.1 150", "ka kd ks p", "Blinn-Phong ambient, diffuse, specular, exponent"),
+        def(&["dcn"], 3, "1 1 1", "r g b", "depth-cue colour at the near plane"),
+        def(&["dcf"], 3, "1 1 1", "r g b", "depth-cue colour at the far plane"),
+        flag(&["t"], "append a per-pixel time channel (milliseconds)"),
+        flag(&["petc"], "press Enter to continue (wait before rendering; for profiling)"),
+        def(&["db"], 2, "-1 -1", "h v", "trace only the ray through pixel (h, v), no image"),
+        def(&["sp"], 1, "true", "bool", "show progress (only when stderr is a terminal)"),
+        opt(&["q"], 2, "min max", "quantization range for PNG output"),
+        opt(&["o"], 1, "fout", "output image (.nrrd, or .png; - = NRRD on stdout)"),
+    ],
+    pos: &[],
+};
+
+struct Trace<'s, 'a> {
+    spec: &'s RenderSpec<'a>,
+    px: [u32; 2],
+}
+
+impl ConvoTask for Trace<'_, '_> {
+    type Output = ();
+    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
+        let spec = self.spec;
+        let [hi, vi] = self.px;
+        let g = spec.ray_geom(hi, vi);
+        println!("pixel ({hi}, {vi}):");
+        println!("  view-space ray initial pos {} step {}", list6(&g.start_v), list6(&g.step_v));
+        println!("  world-space ray initial pos {} step {}", list6(&g.start_w), list6(&g.step_w));
+        println!("  length of ray step {}", g6(g.step_len));
+        let mut convo = Convo::<V, K, S>::new(vol);
+        let plen = spec.params.probe.len();
+        let mut out = vec![0.0f32; plen];
+        let mut cb = |s: &SampleInfo| {
+            let f = |v: &[f32]| v.iter().map(|&x| g6(x as f64)).collect::<Vec<_>>().join(" ");
+            println!(
+                "  sample {}: view ({}) world ({}) index ({}) inside {}",
+                s.k,
+                list6(&s.pos_v),
+                list6(&s.pos_w),
+                list6(&s.convo.pos_i),
+                u8::from(s.convo.inside)
+            );
+            if s.convo.inside {
+                println!(
+                    "    value {} gradient ({})",
+                    g6(s.convo.value as f64),
+                    f(&s.convo.grad_w)
+                );
+            }
+            println!(
+                "    probe ({}){} -> blend ({}) count {}",
+                f(&s.probe[..plen]),
+                if s.counted { "" } else { " not counted" },
+                f(&s.accum.acc[..plen]),
+                s.accum.count
+            );
+        };
+        spec.cast(&mut convo, hi, vi, &mut out, Some(&mut cb));
+        let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
+        println!("result: {}", list6(&r));
+    }
+}
+
+pub fn run(a: &Args) -> anyhow::Result<()> {
+    let camera = super::cam::camera_spec(a)?;
+    let kernel: KernelName = parse_named("k", &a.get_str("k").unwrap_or_default())?;
+    let probe: Probe = parse_named("p", &a.get_str("p").unwrap_or_default())?;
+    let blend: Blend = parse_named("b", &a.get_str("b").unwrap_or_default())?;
+    let [ka, kd, ks, p] = a.get_arr::<f32, 4>("ph")?;
+    let mut params = RenderParams::new(camera);
+    params.plane_sep = a.get("s")?;
+    params.sample_once = a.flag("s1s");
+    params.probe = probe;
+    params.blend = blend;
+    params.outside = a.get("ov")?;
+    params.unit_step = a.get("us")?;
+    params.alpha_near1 = a.get("a1")?;
+    params.phong = Phong { ka, kd, ks, p };
+    params.dcn = a.get_arr("dcn")?;
+    params.dcf = a.get_arr("dcf")?;
+    params.time = a.flag("t");
+    let threads = match a.given("nt") {
+        true => a.get::<usize>("nt")?,
+        false => rnd_std::parallel::default_threads(),
+    };
+    if threads > 1024 {
+        bail!("-nt: {threads} threads is more than the limit of 1024");
+    }
+    let db = a.get_arr::<i32, 2>("db")?;
+    let debug = db[0] >= 0 || db[1] >= 0;
+    let progress: bool = a.get("sp")?;
+    let q = if a.given("q") {
+        let [lo, hi] = a.get_arr::<f64, 2>("q")?;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            bail!("-q: need finite min < max (got {lo} {hi})");
+        }
+        Some((lo, hi))
+    } else {
+        None
+    };
+    let out: Option<PathBuf> = a.get_str("o").map(PathBuf::from);
+    if out.is_none() && !debug {
+        bail!("missing -o (output file), needed unless -db is given");
+    }
+    let input = PathBuf::from(a.get_str("i").unwrap_or_default());
+    if let Some(o) = &out {
+        super::check_not_input(o, &input)?;
+        for f in ["lut", "lev", "lit"] {
+            if let Some(x) = a.get_str(f) {
+                super::check_not_input(o, Path::new(&x))?;
+            }
+        }
+    }
+    let lut = a.get_str("lut").map(|f| rnd_std::files::load_lut(Path::new(&f))).transpose()?;
+    let lev = a.get_str("lev").map(|f| rnd_std::files::load_levoy(Path::new(&f))).transpose()?;
+    let lights = a.get_str("lit").map(|f| rnd_std::files::load_lights(Path::new(&f))).transpose()?;
+    let spec = RenderSpec::new(params, lut.as_ref(), lev.as_ref(), lights.as_deref().unwrap_or(&[]))?;
+    let vol = rnd_std::volume_io::load_volume(&input)?;
+    if debug {
+        let [w, h] = spec.size();
+        if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {
+            bail!("-db: pixel ({} {}) is not inside the {w} x {h} image", db[0], db[1]);
+        }
+        dispatch(vol.view(), kernel, Trace { spec: &spec, px: [db[0] as u32, db[1] as u32] });
+        return Ok(());
+    }
+    if a.flag("petc") {
+        eprint!("rendr go: press Enter to continue ");
+        let mut s = String::new();
+        let _ = std::io::stdin().read_line(&mut s);
+    }
+    let [w, h] = spec.size();
+    let pixels = (w as u64) * (h as u64) * spec.channels as u64 * 4;
+    if let Some(t) = rnd_std::mem_total() {
+        if pixels > t {
+            bail!(
+                "-sz: a {w} x {h} image with {} channels would need {} of memory; this machine has {}",
+                spec.channels,
+                rnd_std::human_bytes(pixels),
+                rnd_std::human_bytes(t)
+            );
+        }
+    }
+    let t0 = std::time::Instant::now();
+    let data = rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress);
+    if std::env::var("RND_VERBOSE").ok().and_then(|v| v.parse::<i32>().ok()).unwrap_or(0) > 0 {
+        eprintln!(
+            "rendr go: {} seconds to render (w/ {threads} threads)",
+            g6(t0.elapsed().as_secs_f64())
+        );
+    }
+    let img = Image { data, channels: spec.channels, size: [w as usize, h as usize] };
+    let o = out.unwrap_or_default();
+    write_image(&img, &o, &super::content("go", a), q).with_context(|| "writing the image")?;
+    Ok(())
+}

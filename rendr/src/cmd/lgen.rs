@@ -1,0 +1,89 @@
+//! `rendr lgen`: build a lookup table from colour and opacity transfer functions.
+
+use std::path::Path;
+
+use anyhow::bail;
+use rnd_core::txf::Lut;
+use rnd_std::nrrd::{self, Centering, Data, Nrrd, WriteOptions};
+
+use crate::args::{def, opt, req, Args, CmdSpec};
+
+pub static SPEC: CmdSpec = CmdSpec {
+    name: "lgen",
+    about: "generate a lookup table (LUT) from transfer functions",
+    info: "Samples a colour txf (rgb or hsv) and an opacity txf (alpha) at the cell \
+           centres of -l entries over [min, max] and writes a 4 x len RGBA LUT. Either txf \
+           may be \"x\" for none (value 1). With -rs, each txf's own control-point domain is \
+           stretched onto [min, max] instead. -oi also writes a picture of the LUT: colour \
+           over a banded grey background, whose visibility shows transparency.",
+    response_files: false,
+    opts: &[
+        req(&["i"], 2, "cTxf aTxf", "colour and opacity control-point files (x = none)"),
+        def(&["rs"], 2, "false false", "cRscl aRscl", "rescale colour / opacity txf domain to the LUT domain"),
+        def(&["l"], 1, "512", "len", "LUT length"),
+        req(&["mm"], 2, "min max", "LUT domain"),
+        req(&["o"], 1, "lut", "output LUT (NRRD)"),
+        def(&["h"], 1, "100", "hght", "height of the -oi picture"),
+        opt(&["oi"], 1, "img", "also write an 8-bit RGB picture (PNG) of the LUT"),
+    ],
+    pos: &[],
+};
+
+/// A picture of `lut`: `len` wide, `h` high, colour composited over a grey background of
+/// horizontal sinusoidal bands (visible where opacity < 1).
+pub fn lut_picture(lut: &Lut, h: usize) -> Vec<u8> {
+    let e = lut.entries();
+    let mut img = Vec::with_capacity(e.len() * h * 3);
+    for y in 0..h {
+        let bg = 0.5 + 0.35 * (2.0 * std::f64::consts::PI * y as f64 / 20.0).sin();
+        for c in e {
+            let a = (c[3] as f64).clamp(0.0, 1.0);
+            for k in 0..3 {
+                let v = (c[k] as f64).clamp(0.0, 1.0) * a + bg * (1.0 - a);
+                img.push(rnd_std::image_out::quantize(v, 0.0, 1.0));
+            }
+        }
+    }
+    img
+}
+
+pub fn run(a: &Args) -> anyhow::Result<()> {
+    let files = a.get_n::<String>("i")?;
+    let [crs, ars] = a.get_arr::<bool, 2>("rs")?;
+    let len: usize = a.get("l")?;
+    let [lo, hi] = a.get_arr::<f64, 2>("mm")?;
+    let hgt: usize = a.get("h")?;
+    let load = |f: &str| -> anyhow::Result<_> {
+        Ok(if f == "x" { None } else { Some(rnd_std::files::load_txf(Path::new(f))?) })
+    };
+    let ctxf = load(&files[0])?;
+    let atxf = load(&files[1])?;
+    if len == 0 {
+        bail!("-l: LUT length must be > 0");
+    }
+    if len > 1 << 24 {
+        bail!("-l: LUT length {len} is unreasonably large (max 16777216)");
+    }
+    if ctxf.is_none() && atxf.is_none() {
+        eprintln!("rendr lgen: warning: no transfer functions (both \"x\"): r,g,b,a = 1 everywhere");
+    }
+    let lut = Lut::generate(ctxf.as_ref(), atxf.as_ref(), crs, ars, len, lo, hi)?;
+    let data: Vec<f32> = lut.entries().iter().flatten().copied().collect();
+    let mut n = Nrrd::new(vec![4, len], Data::F32(data))?;
+    let h = &mut n.header;
+    h.content = Some(super::content("lgen", a));
+    h.axis_mins = Some(vec![f64::NAN, lo]);
+    h.axis_maxs = Some(vec![f64::NAN, hi]);
+    h.centerings = Some(vec![Centering::Unknown, Centering::Cell]);
+    h.kinds = Some(vec!["RGBA-color".into(), "???".into()]);
+    let o = a.get_str("o").unwrap_or_default();
+    if let Some(oi) = a.get_str("oi") {
+        if hgt == 0 || hgt > 1 << 16 {
+            bail!("-h: picture height {hgt} must be in 1..=65536");
+        }
+        let img = lut_picture(&lut, hgt);
+        rnd_std::image_out::write_png_rgb(Path::new(&oi), &img, len, hgt)?;
+    }
+    nrrd::write(&n, Path::new(&o), WriteOptions::default())?;
+    Ok(())
+}

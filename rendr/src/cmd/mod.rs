@@ -1,0 +1,72 @@
+//! The sub-commands, one per file, and the table `main` dispatches on.
+
+use crate::args::{Args, CmdSpec};
+
+mod about;
+mod cam;
+mod ceval;
+mod go;
+mod info;
+mod keval;
+mod klist;
+mod levoy;
+mod lgen;
+mod m4ai;
+mod sdg;
+mod teval;
+
+/// A sub-command: its option table, other names, and what it runs.
+pub struct Command {
+    /// Option table and descriptions.
+    pub spec: &'static CmdSpec,
+    /// Other accepted names.
+    pub aliases: &'static [&'static str],
+    /// The work.
+    pub run: fn(&Args) -> anyhow::Result<()>,
+}
+
+/// Every command, in listing order.
+pub static COMMANDS: &[Command] = &[
+    Command { spec: &about::SPEC, aliases: &[], run: about::run },
+    Command { spec: &m4ai::SPEC, aliases: &["m4ai"], run: m4ai::run },
+    Command { spec: &cam::SPEC, aliases: &[], run: cam::run },
+    Command { spec: &teval::SPEC, aliases: &[], run: teval::run },
+    Command { spec: &lgen::SPEC, aliases: &[], run: lgen::run },
+    Command { spec: &levoy::SPEC, aliases: &[], run: levoy::run },
+    Command { spec: &ceval::SPEC, aliases: &[], run: ceval::run },
+    Command { spec: &go::SPEC, aliases: &[], run: go::run },
+    Command { spec: &klist::SPEC, aliases: &[], run: klist::run },
+    Command { spec: &keval::SPEC, aliases: &[], run: keval::run },
+    Command { spec: &info::SPEC, aliases: &[], run: info::run },
+    Command { spec: &sdg::SPEC, aliases: &[], run: sdg::run },
+];
+
+/// Finds a command by name or alias.
+pub fn find(name: &str) -> Option<&'static Command> {
+    COMMANDS.iter().find(|c| c.spec.name == name || c.aliases.contains(&name))
+}
+
+/// The `content:` text for an output: the command line that made it.
+pub fn content(cmd: &str, a: &Args) -> String {
+    let mut s = format!("rendr {cmd}");
+    for t in &a.tokens {
+        s.push(' ');
+        s.push_str(t);
+    }
+    s
+}
+
+/// Fails when output `out` names the same file as input `input`.
+pub fn check_not_input(out: &std::path::Path, input: &std::path::Path) -> anyhow::Result<()> {
+    if out.as_os_str() == "-" || input.as_os_str() == "-" {
+        return Ok(());
+    }
+    let same = match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        anyhow::bail!("-o {}: output would overwrite the input file", out.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,188 @@
+//! Loading the small text/NRRD files rendr reads (transfer functions, LUTs, Levoy
+//! iso-contours, lights), each validated with errors naming the file, and atomic
+//! output.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use rnd_core::light::Light;
+use rnd_core::txf::{hsv_to_rgb, Levoy, Lut, Txf, TxfSpace};
+
+use crate::nrrd::{self, Centering, Nrrd};
+use crate::{Error, Result};
+
+/// Reads `path` as a NRRD or text array, requiring 2 dimensions (a 1-D array counts as
+/// one column).
+fn read_2d(path: &Path) -> Result<(Nrrd, usize, usize)> {
+    let n = nrrd::read(path)?;
+    let (c, r) = match n.sizes() {
+        [c, r] => (*c, *r),
+        [c] => (1, *c),
+        s => return Err(Error::at(path, format!("need a 2-D array, got {}-D", s.len()))),
+    };
+    Ok((n, c, r))
+}
+
+fn space_of(path: &Path, n: &Nrrd) -> Result<Option<TxfSpace>> {
+    let s = n.header.key("space").or_else(|| n.header.key("range"));
+    match s {
+        None => Ok(None),
+        Some(s) => s.parse::<TxfSpace>().map(Some).map_err(|e| Error::at(path, e.msg)),
+    }
+}
+
+fn rows(n: &Nrrd, c: usize) -> Vec<Vec<f64>> {
+    n.data.to_f64().chunks(c).map(<[f64]>::to_vec).collect()
+}
+
+/// Loads a control-point transfer function (SPEC §3.3): `#space:=` (or `#range:=`) rgb,
+/// hsv or alpha; 4 or 2 columns; rows sorted by position.
+pub fn load_txf(path: &Path) -> Result<Txf> {
+    let (n, c, _) = read_2d(path)?;
+    let space = space_of(path, &n)?.ok_or_else(|| {
+        Error::at(path, "no \"#space:=\" (or \"#range:=\") line saying rgb, hsv or alpha")
+    })?;
+    let need = space.channels() + 1;
+    if c != need {
+        return Err(Error::at(
+            path,
+            format!("axis[0].size should be {need} for space {space}, not {c} (columns per row)"),
+        ));
+    }
+    let rs = rows(&n, c);
+    let refs: Vec<&[f64]> = rs.iter().map(Vec::as_slice).collect();
+    Txf::new(space, &refs).map_err(|e| Error::at(path, e.msg))
+}
+
+/// Loads a LUT (SPEC §3.4): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
+/// centring is given).
+pub fn load_lut(path: &Path) -> Result<Lut> {
+    let n = nrrd::read(path)?;
+    let s = n.sizes();
+    if s.len() != 2 {
+        return Err(Error::at(path, format!("LUT must be 2-D (4 x N), got {}-D", s.len())));
+    }
+    if s[0] != 4 {
+        return Err(Error::at(
+            path,
+            format!("LUT axis 0 has size {}, need 4 (r g b a)", s[0]),
+        ));
+    }
+    let h = &n.header;
+    let (lo, hi) = match (&h.axis_mins, &h.axis_maxs) {
+        (Some(a), Some(b)) => (a[1], b[1]),
+        _ => return Err(Error::at(path, "LUT axis 1 has no axis min/max (the value range)")),
+    };
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(Error::at(path, format!("LUT axis 1 range [{lo}, {hi}] needs finite min < max")));
+    }
+    if nrrd::centering(h, 1) == Centering::Node {
+        return Err(Error::at(path, "LUT axis 1 must be cell-centred, not node"));
+    }
+    let v = n.data.to_f32();
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(Error::at(path, "LUT has non-finite entries"));
+    }
+    let rgba = v.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    Lut::new(lo, hi, rgba).map_err(|e| Error::at(path, e.msg))
+}
+
+/// Loads Levoy iso-contours (SPEC §3.5): 3 columns `v r a` per line.
+pub fn load_levoy(path: &Path) -> Result<Levoy> {
+    let (n, c, _) = read_2d(path)?;
+    if c != 3 {
+        return Err(Error::at(path, format!("need 3 columns (isovalue thickness opacity), got {c}")));
+    }
+    let items = rows(&n, 3).into_iter().map(|r| [r[0] as f32, r[1] as f32, r[2] as f32]).collect();
+    Levoy::new(items).map_err(|e| Error::at(path, e.msg))
+}
+
+/// Loads lights (SPEC §3.6): `#space:=rgb|hsv` (rgb when absent), 7 columns
+/// `c0 c1 c2 d0 d1 d2 vsp`.
+pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
+    let (n, c, _) = read_2d(path)?;
+    let space = space_of(path, &n)?.unwrap_or(TxfSpace::Rgb);
+    if space == TxfSpace::Alpha {
+        return Err(Error::at(path, "light colours must be in space rgb or hsv, not alpha"));
+    }
+    if c != 7 {
+        return Err(Error::at(
+            path,
+            format!("need 7 columns per light (r g b  dx dy dz  view), got {c}"),
+        ));
+    }
+    rows(&n, 7)
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let col = [r[0], r[1], r[2]];
+            let rgb = if space == TxfSpace::Hsv { hsv_to_rgb(col) } else { col };
+            Light::new(
+                [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32],
+                [r[3], r[4], r[5]],
+                r[6] != 0.0,
+            )
+            .map_err(|e| Error::at(path, format!("light {i}: {}", e.msg)))
+        })
+        .collect()
+}
+
+static TEMP_FILES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes every temporary output file still being written (for a Ctrl-C handler).
+pub fn remove_temp_files() {
+    if let Ok(v) = TEMP_FILES.lock() {
+        for p in v.iter() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
+fn forget_temp(p: &Path) {
+    if let Ok(mut v) = TEMP_FILES.lock() {
+        v.retain(|x| x != p);
+    }
+}
+
+/// Writes to `path` through `fill`: `-` goes to stdout; anything else goes to a temporary
+/// file in the same directory that is renamed over `path` only after `fill` succeeded,
+/// so a failure never leaves a partial file or clobbers an existing one.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    if path.as_os_str() == "-" {
+        let stdout = std::io::stdout();
+        let mut lock = std::io::BufWriter::new(stdout.lock());
+        fill(&mut lock)?;
+        return lock.flush().map_err(|e| Error::io(path, "can't write to stdout", e));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::at(path, "output name has no file name"))?
+        .to_string_lossy()
+        .into_owned();
+    if path.is_dir() {
+        return Err(Error::at(path, "output is a directory"));
+    }
+    let tmp = dir.join(format!(".{name}.rendr-tmp-{}", std::process::id()));
+    if let Ok(mut v) = TEMP_FILES.lock() {
+        v.push(tmp.clone());
+    }
+    let result = (|| {
+        let f = std::fs::File::create(&tmp)
+            .map_err(|e| Error::io(path, "can't create output", e))?;
+        let mut w = std::io::BufWriter::new(f);
+        fill(&mut w).map_err(|e| e.with_path(path))?;
+        let f = w.into_inner().map_err(|e| Error::io(path, "can't write", e.into_error()))?;
+        f.sync_all().ok();
+        drop(f);
+        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, "can't move output into place", e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    forget_temp(&tmp);
+    result
+}

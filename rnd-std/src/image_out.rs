@@ -1,0 +1,109 @@
+//! Output images of `go`: NRRD (3-D float, channel axis first; SPEC D4) or 8-bit PNG
+//! (SPEC D12).
+
+use std::path::Path;
+
+use crate::files::write_atomic;
+use crate::nrrd::{self, Data, Nrrd, WriteOptions};
+use crate::{Error, Result};
+
+/// An image of `channels` floats per pixel, `size[0]` × `size[1]` pixels, top row first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Samples, channel fastest.
+    pub data: Vec<f32>,
+    /// Channels per pixel.
+    pub channels: usize,
+    /// Width, height.
+    pub size: [usize; 2],
+}
+
+/// Whether `path` asks for PNG output.
+pub fn is_png(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"))
+}
+
+/// `floor(256·(v − min)/(max − min))` clamped to 0..=255 (Teem's quantization).
+pub fn quantize(v: f64, min: f64, max: f64) -> u8 {
+    if !v.is_finite() || max <= min {
+        return 0;
+    }
+    let i = ((v - min) / (max - min) * 256.0).floor();
+    i.clamp(0.0, 255.0) as u8
+}
+
+/// Encodes the image as 8-bit PNG bytes: 1 channel → grey over [min, max] (`range` or the
+/// image's finite range); 3 channels → RGB over one common range; 4 channels → RGBA
+/// composited over black (rgb·a), as `overrgb -b 0 0 0`. Other channel counts use the
+/// first channel.
+pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
+    let [w, h] = img.size;
+    let c = img.channels;
+    let npx = w * h;
+    let (buf, color): (Vec<u8>, image::ColorType) = match c {
+        4 => {
+            let mut b = Vec::with_capacity(npx * 3);
+            for p in img.data.chunks_exact(4) {
+                for k in 0..3 {
+                    let v = (p[k] * p[3]) as f64;
+                    b.push(quantize(v, 0.0, 1.0));
+                }
+            }
+            (b, image::ColorType::Rgb8)
+        }
+        3 => {
+            let (lo, hi) = range.unwrap_or_else(|| finite_range(img.data.iter().copied()));
+            (img.data.iter().map(|&v| quantize(v as f64, lo, hi)).collect(), image::ColorType::Rgb8)
+        }
+        _ => {
+            let first = img.data.iter().step_by(c).copied();
+            let (lo, hi) = range.unwrap_or_else(|| finite_range(first.clone()));
+            (first.map(|v| quantize(v as f64, lo, hi)).collect(), image::ColorType::L8)
+        }
+    };
+    encode_png(&buf, w, h, color)
+}
+
+/// Encodes 8-bit pixels (`color` = L8, Rgb8 or Rgba8) as PNG bytes.
+pub fn encode_png(buf: &[u8], w: usize, h: usize, color: image::ColorType) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    let enc = image::codecs::png::PngEncoder::new(&mut out);
+    image::ImageEncoder::write_image(enc, buf, w as u32, h as u32, color.into())
+        .map_err(|e| Error::msg(format!("PNG encoding failed: {e}")))?;
+    Ok(out)
+}
+
+/// Writes 8-bit RGB pixels (`w` × `h`, top row first) as a PNG file, atomically.
+pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> {
+    let bytes = encode_png(buf, w, h, image::ColorType::Rgb8)?;
+    write_atomic(path, |f| f.write_all(&bytes).map_err(|e| Error::msg(format!("write failed: {e}"))))
+}
+
+fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in it {
+        if v.is_finite() {
+            lo = lo.min(v as f64);
+            hi = hi.max(v as f64);
+        }
+    }
+    if lo > hi {
+        (0.0, 1.0)
+    } else {
+        (lo, hi)
+    }
+}
+
+/// Writes `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
+/// sizes C W H, `content` as given). `-` writes NRRD to stdout.
+pub fn write_image(img: &Image, path: &Path, content: &str, range: Option<(f64, f64)>) -> Result<()> {
+    if is_png(path) {
+        let bytes = png_bytes(img, range)?;
+        return write_atomic(path, |w| {
+            w.write_all(&bytes).map_err(|e| Error::msg(format!("write failed: {e}")))
+        });
+    }
+    let mut n = Nrrd::new(vec![img.channels, img.size[0], img.size[1]], Data::F32(img.data.clone()))?;
+    n.header.content = Some(content.to_string());
+    nrrd::write(&n, path, WriteOptions::default())
+}

@@ -1,0 +1,129 @@
+//! NRRD files (attached and detached headers; raw, ascii, hex, gzip, bzip2; both endians;
+//! every scalar type) and plain-text numeric arrays.
+//!
+//! [`read`] accepts either: a file not starting with the `NRRD` magic is read as a
+//! plain-text table (SPEC §3.2). Sizes are checked against the data (and the machine's
+//! memory) before anything is allocated.
+
+mod header;
+mod read;
+mod text;
+mod write;
+
+pub use header::{Centering, Encoding, Endian, Header, ScalarType};
+pub use read::{centering, read, read_bytes};
+pub use text::{parse_text, write_text};
+pub use write::{write, write_to, WriteOptions};
+
+/// Samples of any NRRD scalar type.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Data {
+    /// signed char
+    I8(Vec<i8>),
+    /// unsigned char
+    U8(Vec<u8>),
+    /// short
+    I16(Vec<i16>),
+    /// unsigned short
+    U16(Vec<u16>),
+    /// int
+    I32(Vec<i32>),
+    /// unsigned int
+    U32(Vec<u32>),
+    /// long long
+    I64(Vec<i64>),
+    /// unsigned long long
+    U64(Vec<u64>),
+    /// float
+    F32(Vec<f32>),
+    /// double
+    F64(Vec<f64>),
+}
+
+macro_rules! each_data {
+    ($d:expr, $v:ident => $e:expr) => {
+        match $d {
+            $crate::nrrd::Data::I8($v) => $e,
+            $crate::nrrd::Data::U8($v) => $e,
+            $crate::nrrd::Data::I16($v) => $e,
+            $crate::nrrd::Data::U16($v) => $e,
+            $crate::nrrd::Data::I32($v) => $e,
+            $crate::nrrd::Data::U32($v) => $e,
+            $crate::nrrd::Data::I64($v) => $e,
+            $crate::nrrd::Data::U64($v) => $e,
+            $crate::nrrd::Data::F32($v) => $e,
+            $crate::nrrd::Data::F64($v) => $e,
+        }
+    };
+}
+pub(crate) use each_data;
+
+impl Data {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        each_data!(self, v => v.len())
+    }
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The scalar type.
+    pub fn scalar_type(&self) -> ScalarType {
+        match self {
+            Data::I8(_) => ScalarType::I8,
+            Data::U8(_) => ScalarType::U8,
+            Data::I16(_) => ScalarType::I16,
+            Data::U16(_) => ScalarType::U16,
+            Data::I32(_) => ScalarType::I32,
+            Data::U32(_) => ScalarType::U32,
+            Data::I64(_) => ScalarType::I64,
+            Data::U64(_) => ScalarType::U64,
+            Data::F32(_) => ScalarType::F32,
+            Data::F64(_) => ScalarType::F64,
+        }
+    }
+    /// Sample `i` as f64.
+    pub fn get_f64(&self, i: usize) -> f64 {
+        each_data!(self, v => v[i] as f64)
+    }
+    /// All samples as f64.
+    pub fn to_f64(&self) -> Vec<f64> {
+        each_data!(self, v => v.iter().map(|&x| x as f64).collect())
+    }
+    /// All samples as f32 (rounded for wider types).
+    pub fn to_f32(&self) -> Vec<f32> {
+        match self {
+            Data::F32(v) => v.clone(),
+            _ => each_data!(self, v => v.iter().map(|&x| x as f32).collect()),
+        }
+    }
+}
+
+/// A NRRD array: header plus samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Nrrd {
+    /// Header (per-axis information, key/values...). `header.sizes` match the data.
+    pub header: Header,
+    /// The samples, fastest axis first.
+    pub data: Data,
+}
+
+impl Nrrd {
+    /// A new array with a plain header for `sizes`; fails when the sizes do not match.
+    pub fn new(sizes: Vec<usize>, data: Data) -> crate::Result<Nrrd> {
+        let n = sizes.iter().try_fold(1usize, |a, &s| a.checked_mul(s));
+        if n != Some(data.len()) {
+            return Err(crate::Error::msg(format!(
+                "sizes {sizes:?} do not match {} samples",
+                data.len()
+            )));
+        }
+        let mut header = Header::new(data.scalar_type(), sizes);
+        header.encoding = Encoding::Raw;
+        Ok(Nrrd { header, data })
+    }
+    /// Sizes, fastest axis first.
+    pub fn sizes(&self) -> &[usize] {
+        &self.header.sizes
+    }
+}

@@ -1,0 +1,668 @@
+//! Reading NRRD files (and plain-text arrays via [`super::text`]).
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use super::header::{Centering, Encoding, Endian, Header, ScalarType};
+use super::{Data, Nrrd};
+use crate::{Error, Result};
+
+/// Reads a NRRD or plain-text array from `path` (`-` = stdin).
+pub fn read(path: &Path) -> Result<Nrrd> {
+    let bytes = if path.as_os_str() == "-" {
+        let mut b = Vec::new();
+        std::io::stdin().read_to_end(&mut b).map_err(|e| Error::io(path, "can't read", e))?;
+        b
+    } else {
+        std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?
+    };
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    read_bytes(&bytes, &dir).map_err(|e| e.with_path(path))
+}
+
+/// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data
+/// files.
+pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
+    if !bytes.starts_with(b"NRRD") {
+        if bytes.starts_with(b"\x1f\x8b") {
+            return Err(Error::msg("not a NRRD file (looks like a bare gzip stream)"));
+        }
+        let text = std::str::from_utf8(bytes)
+            .map_err(|_| Error::msg("not a NRRD file (no NRRD magic) and not a text array"))?;
+        return super::text::parse_text(text);
+    }
+    let (hdr_text, data_off) = split_header(bytes)?;
+    let (header, data_file) = parse_header(hdr_text)?;
+    let data = match data_file {
+        None => decode(&header, &bytes[data_off..], &header.skips)?,
+        Some(files) => {
+            let mut all = Vec::new();
+            for f in &files {
+                let p = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
+                let b =
+                    std::fs::read(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
+                all.push(b);
+            }
+            if all.len() == 1 {
+                decode(&header, &all[0], &header.skips)?
+            } else {
+                // Each file holds an equal slab; decode them as one by concatenating the
+                // decompressed/raw payloads after skips.
+                let mut joined = Vec::new();
+                for b in &all {
+                    joined.extend_from_slice(skip_bytes(b, &header.skips, None)?);
+                }
+                let no_skip = Skips::default();
+                decode(&header, &joined, &no_skip)?
+            }
+        }
+    };
+    let Parsed { header, .. } = header;
+    Ok(Nrrd { header, data })
+}
+
+/// Header plus reading-only fields.
+struct Parsed {
+    header: Header,
+    skips: Skips,
+}
+
+impl std::ops::Deref for Parsed {
+    type Target = Header;
+    fn deref(&self) -> &Header {
+        &self.header
+    }
+}
+
+#[derive(Default, Clone, Copy)]
+struct Skips {
+    line: usize,
+    byte: i64,
+}
+
+fn split_header(bytes: &[u8]) -> Result<(&str, usize)> {
+    // The header ends at the first empty line (or at EOF for detached headers).
+    let mut pos = 0;
+    let mut end = bytes.len();
+    let mut data_off = bytes.len();
+    while pos < bytes.len() {
+        let nl = bytes[pos..].iter().position(|&b| b == b'\n').map(|i| pos + i);
+        let line_end = nl.unwrap_or(bytes.len());
+        let line = &bytes[pos..line_end];
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        if line.is_empty() && pos > 0 {
+            end = pos;
+            data_off = line_end + 1;
+            break;
+        }
+        match nl {
+            Some(n) => pos = n + 1,
+            None => {
+                pos = bytes.len();
+            }
+        }
+    }
+    let text = std::str::from_utf8(&bytes[..end.min(bytes.len())])
+        .map_err(|_| Error::msg("NRRD header is not valid text"))?;
+    Ok((text, data_off.min(bytes.len())))
+}
+
+fn canonical_space(s: &str) -> String {
+    let l = s.trim().to_ascii_lowercase();
+    let c = match l.as_str() {
+        "ras" => "right-anterior-superior",
+        "las" => "left-anterior-superior",
+        "lps" => "left-posterior-superior",
+        "rast" => "right-anterior-superior-time",
+        "last" => "left-anterior-superior-time",
+        "lpst" => "left-posterior-superior-time",
+        "scanner-xyz" => "scanner-xyz",
+        "3d-right-handed" => "3D-right-handed",
+        "3d-left-handed" => "3D-left-handed",
+        _ => return s.trim().to_string(),
+    };
+    c.to_string()
+}
+
+fn parse_f64s(field: &str, v: &str, n: usize) -> Result<Vec<f64>> {
+    let out: Vec<f64> = v
+        .split_whitespace()
+        .map(|w| parse_f64(w).ok_or_else(|| Error::msg(format!("{field}: can't parse \"{w}\" as a number"))))
+        .collect::<Result<_>>()?;
+    if out.len() != n {
+        return Err(Error::msg(format!("{field}: got {} values, dimension is {n}", out.len())));
+    }
+    Ok(out)
+}
+
+/// Parses a number the way Teem writes them (also `nan`, `inf`, `-inf`).
+pub(crate) fn parse_f64(w: &str) -> Option<f64> {
+    let l = w.to_ascii_lowercase();
+    match l.as_str() {
+        "nan" | "-nan" | "+nan" => Some(f64::NAN),
+        "inf" | "+inf" | "infinity" => Some(f64::INFINITY),
+        "-inf" | "-infinity" => Some(f64::NEG_INFINITY),
+        _ => w.parse::<f64>().ok(),
+    }
+}
+
+fn parse_vector(s: &str) -> Result<Vec<f64>> {
+    let inner = s
+        .trim()
+        .strip_prefix('(')
+        .and_then(|x| x.strip_suffix(')'))
+        .ok_or_else(|| Error::msg(format!("vector \"{s}\" is not in (x,y,z) form")))?;
+    inner
+        .split(',')
+        .map(|w| {
+            parse_f64(w.trim()).ok_or_else(|| Error::msg(format!("can't parse \"{w}\" in vector \"{s}\"")))
+        })
+        .collect()
+}
+
+/// Splits "(a,b,c) none (d,e,f)" into items.
+fn vector_items(v: &str) -> Vec<String> {
+    let mut items = Vec::new();
+    let mut cur = String::new();
+    let mut depth = 0;
+    for ch in v.chars() {
+        match ch {
+            '(' => {
+                depth += 1;
+                cur.push(ch);
+            }
+            ')' => {
+                depth -= 1;
+                cur.push(ch);
+                if depth == 0 {
+                    items.push(std::mem::take(&mut cur));
+                }
+            }
+            c if c.is_whitespace() && depth == 0 => {
+                if !cur.is_empty() {
+                    items.push(std::mem::take(&mut cur));
+                }
+            }
+            c => cur.push(c),
+        }
+    }
+    if !cur.is_empty() {
+        items.push(cur);
+    }
+    items
+}
+
+/// Largest number of dimensions accepted.
+const MAX_DIM: usize = 16;
+
+fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
+    let mut lines = text.lines();
+    let magic = lines.next().unwrap_or("").trim_end();
+    let version = match magic {
+        "NRRD0001" => 1,
+        "NRRD0002" => 2,
+        "NRRD0003" => 3,
+        "NRRD0004" => 4,
+        "NRRD0005" => 5,
+        _ => {
+            let m: String = magic.chars().take(20).collect();
+            return Err(Error::msg(format!(
+                "bad magic \"{m}\" (need NRRD0001 .. NRRD0005)"
+            )));
+        }
+    };
+    let mut scalar = None;
+    let mut dim: Option<usize> = None;
+    let mut h = Header::new(ScalarType::U8, Vec::new());
+    h.version = version;
+    let mut sizes: Option<Vec<usize>> = None;
+    let mut encoding = None;
+    let mut endian = None;
+    let mut skips = Skips::default();
+    let mut data_file: Option<Vec<String>> = None;
+    let mut list_mode = false;
+    // Raw field strings that need the dimension to parse; parsed after the loop.
+    let mut per_axis: Vec<(String, String)> = Vec::new();
+    for (ln, line) in lines.enumerate() {
+        let line = line.trim_end_matches('\r');
+        if list_mode {
+            if !line.trim().is_empty() {
+                data_file.get_or_insert_with(Vec::new).push(line.trim().to_string());
+            }
+            continue;
+        }
+        if let Some(c) = line.strip_prefix('#') {
+            h.comments.push(c.trim().to_string());
+            continue;
+        }
+        if line.trim().is_empty() {
+            continue;
+        }
+        if let Some((k, v)) = line.split_once(":=") {
+            if !k.contains(": ") {
+                h.key_values.push((k.to_string(), v.to_string()));
+                continue;
+            }
+        }
+        let Some((field, value)) = line.split_once(": ").or_else(|| line.split_once(':')) else {
+            return Err(Error::msg(format!(
+                "header line {}: \"{}\" is not \"field: value\"",
+                ln + 2,
+                line.chars().take(60).collect::<String>()
+            )));
+        };
+        let field = field.trim().to_ascii_lowercase();
+        let value = value.trim();
+        match field.as_str() {
+            "type" => {
+                scalar = Some(ScalarType::parse(value).ok_or_else(|| {
+                    Error::msg(format!("type: unknown or unsupported type \"{value}\""))
+                })?)
+            }
+            "dimension" => {
+                let d: usize = value
+                    .parse()
+                    .map_err(|_| Error::msg(format!("dimension: can't parse \"{value}\"")))?;
+                if d == 0 || d > MAX_DIM {
+                    return Err(Error::msg(format!("dimension: {d} not in 1..={MAX_DIM}")));
+                }
+                dim = Some(d);
+            }
+            "sizes" => {
+                let s: Vec<usize> = value
+                    .split_whitespace()
+                    .map(|w| {
+                        w.parse::<usize>()
+                            .map_err(|_| Error::msg(format!("sizes: can't parse \"{w}\" as a size")))
+                    })
+                    .collect::<Result<_>>()?;
+                sizes = Some(s);
+            }
+            "encoding" => {
+                encoding = Some(Encoding::parse(value).ok_or_else(|| {
+                    Error::msg(format!("encoding: unknown or unsupported encoding \"{value}\""))
+                })?)
+            }
+            "endian" => {
+                endian = Some(match value.to_ascii_lowercase().as_str() {
+                    "little" => Endian::Little,
+                    "big" => Endian::Big,
+                    _ => return Err(Error::msg(format!("endian: \"{value}\" is not little or big"))),
+                })
+            }
+            "content" => h.content = Some(value.to_string()),
+            "space" => h.space = Some(canonical_space(value)),
+            "space dimension" => {
+                let d: usize = value
+                    .parse()
+                    .map_err(|_| Error::msg(format!("space dimension: can't parse \"{value}\"")))?;
+                if d == 0 || d > MAX_DIM {
+                    return Err(Error::msg(format!("space dimension: {d} out of range")));
+                }
+                h.space_dimension = Some(d);
+            }
+            "space origin" => h.space_origin = Some(parse_vector(value)?),
+            "byte skip" | "byteskip" => {
+                skips.byte = value
+                    .parse()
+                    .map_err(|_| Error::msg(format!("byte skip: can't parse \"{value}\"")))?;
+                if skips.byte < -1 {
+                    return Err(Error::msg(format!("byte skip: {} must be >= -1", skips.byte)));
+                }
+            }
+            "line skip" | "lineskip" => {
+                skips.line = value
+                    .parse()
+                    .map_err(|_| Error::msg(format!("line skip: can't parse \"{value}\"")))?
+            }
+            "data file" | "datafile" => {
+                if value == "LIST" || value.starts_with("LIST ") {
+                    list_mode = true;
+                } else if value.contains('%') {
+                    data_file = Some(expand_format(value)?);
+                } else {
+                    data_file = Some(vec![value.to_string()]);
+                }
+            }
+            "space directions" | "spacings" | "axis mins" | "axismins" | "axis maxs"
+            | "axismaxs" | "centerings" | "centers" | "kinds" | "labels" => {
+                per_axis.push((field, value.to_string()))
+            }
+            _ => h.other.push((field, value.to_string())),
+        }
+    }
+    let scalar = scalar.ok_or_else(|| Error::msg("header has no \"type\" field"))?;
+    let dim = dim.ok_or_else(|| Error::msg("header has no \"dimension\" field"))?;
+    let sizes = sizes.ok_or_else(|| Error::msg("header has no \"sizes\" field"))?;
+    if sizes.len() != dim {
+        return Err(Error::msg(format!(
+            "sizes: {} values but dimension is {dim}",
+            sizes.len()
+        )));
+    }
+    if sizes.contains(&0) {
+        return Err(Error::msg(format!("sizes: an axis has size 0 ({sizes:?})")));
+    }
+    let encoding = encoding.ok_or_else(|| Error::msg("header has no \"encoding\" field"))?;
+    let needs_endian = scalar.size() > 1 && matches!(encoding, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2 | Encoding::Hex);
+    let endian = match endian {
+        Some(e) => e,
+        None if needs_endian => return Err(Error::msg("header has no \"endian\" field")),
+        None => Endian::Little,
+    };
+    for (field, value) in per_axis {
+        let words = || value.split_whitespace().map(str::to_string).collect::<Vec<_>>();
+        let check = |n: usize| -> Result<()> {
+            if n != dim {
+                Err(Error::msg(format!("{field}: got {n} values, dimension is {dim}")))
+            } else {
+                Ok(())
+            }
+        };
+        match field.as_str() {
+            "space directions" => {
+                let items = vector_items(&value);
+                check(items.len())?;
+                let mut dirs = Vec::new();
+                for it in items {
+                    if it == "none" {
+                        dirs.push(None);
+                    } else {
+                        let v = parse_vector(&it)?;
+                        dirs.push(Some(v));
+                    }
+                }
+                h.space_directions = Some(dirs);
+            }
+            "spacings" => h.spacings = Some(parse_f64s(&field, &value, dim)?),
+            "axis mins" | "axismins" => h.axis_mins = Some(parse_f64s(&field, &value, dim)?),
+            "axis maxs" | "axismaxs" => h.axis_maxs = Some(parse_f64s(&field, &value, dim)?),
+            "centerings" | "centers" => {
+                let w = words();
+                check(w.len())?;
+                h.centerings = Some(
+                    w.iter()
+                        .map(|c| match c.as_str() {
+                            "cell" => Ok(Centering::Cell),
+                            "node" => Ok(Centering::Node),
+                            "???" | "none" => Ok(Centering::Unknown),
+                            _ => Err(Error::msg(format!("centerings: unknown centering \"{c}\""))),
+                        })
+                        .collect::<Result<_>>()?,
+                );
+            }
+            "kinds" => {
+                let w = words();
+                check(w.len())?;
+                h.kinds = Some(w);
+            }
+            "labels" => {
+                let w: Vec<String> = value
+                    .split('"')
+                    .enumerate()
+                    .filter(|(i, _)| i % 2 == 1)
+                    .map(|(_, s)| s.to_string())
+                    .collect();
+                check(w.len())?;
+                h.labels = Some(w);
+            }
+            _ => {}
+        }
+    }
+    if let (Some(dirs), Some(sd)) = (&h.space_directions, h.space_dim()) {
+        for d in dirs.iter().flatten() {
+            if d.len() != sd {
+                return Err(Error::msg(format!(
+                    "space directions: vector of length {} but space dimension is {sd}",
+                    d.len()
+                )));
+            }
+        }
+    }
+    if let (Some(o), Some(sd)) = (&h.space_origin, h.space_dim()) {
+        if o.len() != sd {
+            return Err(Error::msg(format!(
+                "space origin: {} values but space dimension is {sd}",
+                o.len()
+            )));
+        }
+    }
+    h.scalar = scalar;
+    h.sizes = sizes;
+    h.encoding = encoding;
+    h.endian = endian;
+    Ok((Parsed { header: h, skips }, data_file))
+}
+
+fn expand_format(value: &str) -> Result<Vec<String>> {
+    let w: Vec<&str> = value.split_whitespace().collect();
+    if w.len() < 4 {
+        return Err(Error::msg(format!("data file: \"{value}\" needs <format> <min> <max> <step>")));
+    }
+    let num = |s: &str| {
+        s.parse::<i64>()
+            .map_err(|_| Error::msg(format!("data file: can't parse \"{s}\" as an integer")))
+    };
+    let (min, max, step) = (num(w[1])?, num(w[2])?, num(w[3])?);
+    if step == 0 || (max - min) / step < 0 || (max - min) / step > 100_000 {
+        return Err(Error::msg(format!("data file: bad range {min} {max} {step}")));
+    }
+    let mut out = Vec::new();
+    let mut i = min;
+    while (step > 0 && i <= max) || (step < 0 && i >= max) {
+        out.push(format_printf_int(w[0], i)?);
+        i += step;
+    }
+    Ok(out)
+}
+
+/// Expands one `%d` / `%03d`-style conversion.
+fn format_printf_int(fmt: &str, v: i64) -> Result<String> {
+    let Some(p) = fmt.find('%') else {
+        return Ok(fmt.to_string());
+    };
+    let rest = &fmt[p + 1..];
+    let end = rest
+        .find(|c: char| c.is_ascii_alphabetic())
+        .ok_or_else(|| Error::msg(format!("data file: bad format \"{fmt}\"")))?;
+    let spec = &rest[..end];
+    if !matches!(&rest[end..end + 1], "d" | "u" | "i") {
+        return Err(Error::msg(format!("data file: only %d formats are supported (\"{fmt}\")")));
+    }
+    let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
+    let s = if spec.starts_with('0') { format!("{v:0width$}") } else { format!("{v:width$}") };
+    Ok(format!("{}{}{}", &fmt[..p], s, &rest[end + 1..]))
+}
+
+/// Applies line and byte skips; `byte = -1` means "the data is the last `need` bytes".
+fn skip_bytes<'a>(b: &'a [u8], sk: &Skips, need: Option<usize>) -> Result<&'a [u8]> {
+    let mut b = b;
+    for _ in 0..sk.line {
+        match b.iter().position(|&c| c == b'\n') {
+            Some(i) => b = &b[i + 1..],
+            None => return Err(Error::msg("line skip goes past the end of the data")),
+        }
+    }
+    if sk.byte == -1 {
+        let need = need.ok_or_else(|| Error::msg("byte skip -1 needs raw encoding"))?;
+        if b.len() < need {
+            return Err(Error::msg(format!(
+                "data is truncated: need {need} bytes, file has {}",
+                b.len()
+            )));
+        }
+        return Ok(&b[b.len() - need..]);
+    }
+    let s = sk.byte as usize;
+    if s > b.len() {
+        return Err(Error::msg("byte skip goes past the end of the data"));
+    }
+    Ok(&b[s..])
+}
+
+/// Refuses requests for more bytes than the machine has memory.
+pub(crate) fn check_memory(bytes: usize, what: &str) -> Result<()> {
+    if let Some(total) = crate::mem_total() {
+        if bytes as u64 > total {
+            return Err(Error::msg(format!(
+                "{what} would need {} of memory; this machine has {}",
+                crate::human_bytes(bytes as u64),
+                crate::human_bytes(total)
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
+    let n = h.count().ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
+    let tsz = h.scalar.size();
+    let nbytes = n
+        .checked_mul(tsz)
+        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
+    check_memory(nbytes, &format!("sizes {:?} of {}", h.sizes, h.scalar))?;
+    let bytes: std::borrow::Cow<[u8]> = match h.encoding {
+        Encoding::Raw => {
+            let b = skip_bytes(raw, skips, Some(nbytes))?;
+            if b.len() < nbytes {
+                return Err(Error::msg(format!(
+                    "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
+                    h.sizes,
+                    h.scalar,
+                    b.len()
+                )));
+            }
+            std::borrow::Cow::Borrowed(&b[..nbytes])
+        }
+        Encoding::Gzip | Encoding::Bzip2 => {
+            let b = skip_bytes(raw, skips, None)?;
+            let mut out = Vec::new();
+            let lim = nbytes as u64;
+            let r = if h.encoding == Encoding::Gzip {
+                flate2::read::MultiGzDecoder::new(b).take(lim).read_to_end(&mut out)
+            } else {
+                bzip2::read::MultiBzDecoder::new(b).take(lim).read_to_end(&mut out)
+            };
+            r.map_err(|e| {
+                Error::msg(format!("{} data can't be decompressed: {e}", h.encoding.as_str()))
+            })?;
+            if out.len() < nbytes {
+                return Err(Error::msg(format!(
+                    "data is truncated: {} stream gave {} bytes, sizes {:?} of {} need {nbytes}",
+                    h.encoding.as_str(),
+                    out.len(),
+                    h.sizes,
+                    h.scalar
+                )));
+            }
+            std::borrow::Cow::Owned(out)
+        }
+        Encoding::Hex => {
+            let b = skip_bytes(raw, skips, None)?;
+            let mut out = Vec::new();
+            let mut hi: Option<u8> = None;
+            for &c in b {
+                if out.len() == nbytes {
+                    break;
+                }
+                let v = match c {
+                    b'0'..=b'9' => c - b'0',
+                    b'a'..=b'f' => c - b'a' + 10,
+                    b'A'..=b'F' => c - b'A' + 10,
+                    c if c.is_ascii_whitespace() => continue,
+                    _ => return Err(Error::msg(format!("hex data: bad character {:?}", c as char))),
+                };
+                match hi.take() {
+                    None => hi = Some(v),
+                    Some(h4) => out.push(h4 << 4 | v),
+                }
+            }
+            if out.len() < nbytes {
+                return Err(Error::msg(format!(
+                    "data is truncated: hex gave {} bytes, need {nbytes}",
+                    out.len()
+                )));
+            }
+            std::borrow::Cow::Owned(out)
+        }
+        Encoding::Ascii => {
+            let b = skip_bytes(raw, skips, None)?;
+            let text = std::str::from_utf8(b).map_err(|_| Error::msg("ascii data is not text"))?;
+            return ascii_data(h.scalar, text, n);
+        }
+    };
+    Ok(from_bytes(h.scalar, &bytes, h.endian, n))
+}
+
+fn ascii_data(t: ScalarType, text: &str, n: usize) -> Result<Data> {
+    let mut vals = Vec::with_capacity(n.min(1 << 20));
+    for w in text.split(|c: char| c.is_whitespace() || c == ',') {
+        if w.is_empty() {
+            continue;
+        }
+        if vals.len() == n {
+            break;
+        }
+        let v = parse_f64(w).ok_or_else(|| Error::msg(format!("ascii data: can't parse \"{w}\"")))?;
+        vals.push(v);
+    }
+    if vals.len() < n {
+        return Err(Error::msg(format!(
+            "data is truncated: ascii data has {} values, need {n}",
+            vals.len()
+        )));
+    }
+    Ok(from_f64(t, &vals))
+}
+
+/// Converts f64 values into typed data (saturating for integers).
+pub(crate) fn from_f64(t: ScalarType, v: &[f64]) -> Data {
+    match t {
+        ScalarType::I8 => Data::I8(v.iter().map(|&x| x as i8).collect()),
+        ScalarType::U8 => Data::U8(v.iter().map(|&x| x as u8).collect()),
+        ScalarType::I16 => Data::I16(v.iter().map(|&x| x as i16).collect()),
+        ScalarType::U16 => Data::U16(v.iter().map(|&x| x as u16).collect()),
+        ScalarType::I32 => Data::I32(v.iter().map(|&x| x as i32).collect()),
+        ScalarType::U32 => Data::U32(v.iter().map(|&x| x as u32).collect()),
+        ScalarType::I64 => Data::I64(v.iter().map(|&x| x as i64).collect()),
+        ScalarType::U64 => Data::U64(v.iter().map(|&x| x as u64).collect()),
+        ScalarType::F32 => Data::F32(v.iter().map(|&x| x as f32).collect()),
+        ScalarType::F64 => Data::F64(v.to_vec()),
+    }
+}
+
+fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Data {
+    macro_rules! conv {
+        ($ty:ty, $var:ident) => {{
+            const S: usize = std::mem::size_of::<$ty>();
+            let v: Vec<$ty> = b[..n * S]
+                .chunks_exact(S)
+                .map(|c| {
+                    let a: [u8; S] = c.try_into().expect("chunk size");
+                    match e {
+                        Endian::Little => <$ty>::from_le_bytes(a),
+                        Endian::Big => <$ty>::from_be_bytes(a),
+                    }
+                })
+                .collect();
+            Data::$var(v)
+        }};
+    }
+    match t {
+        ScalarType::I8 => conv!(i8, I8),
+        ScalarType::U8 => conv!(u8, U8),
+        ScalarType::I16 => conv!(i16, I16),
+        ScalarType::U16 => conv!(u16, U16),
+        ScalarType::I32 => conv!(i32, I32),
+        ScalarType::U32 => conv!(u32, U32),
+        ScalarType::I64 => conv!(i64, I64),
+        ScalarType::U64 => conv!(u64, U64),
+        ScalarType::F32 => conv!(f32, F32),
+        ScalarType::F64 => conv!(f64, F64),
+    }
+}
+
+/// Centering helper for callers: per-axis centring or Unknown.
+pub fn centering(h: &Header, axis: usize) -> Centering {
+    h.centerings.as_ref().and_then(|c| c.get(axis).copied()).unwrap_or(Centering::Unknown)
+}

@@ -1,0 +1,169 @@
+//! Writing NRRD files: `NRRD0004`, raw / gzip / bzip2 / ascii, little-endian, to a
+//! temporary file renamed into place.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::header::{Encoding, Endian};
+use super::{each_data, Nrrd};
+use crate::{Error, Result};
+
+/// How to write.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WriteOptions {
+    /// Data encoding.
+    pub encoding: Encoding,
+    /// Byte order (for raw/gzip/bzip2/hex).
+    pub endian: Endian,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions { encoding: Encoding::Raw, endian: Endian::Little }
+    }
+}
+
+fn fmt_f64(x: f64) -> String {
+    if x.is_nan() {
+        "nan".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf".into() } else { "-inf".into() }
+    } else {
+        format!("{x}")
+    }
+}
+
+fn vec3(v: &[f64]) -> String {
+    format!("({})", v.iter().map(|&x| fmt_f64(x)).collect::<Vec<_>>().join(","))
+}
+
+/// Serializes `n` with options `opt` into `w`.
+pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
+    let h = &n.header;
+    let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
+    let mut s = String::from("NRRD0004\n");
+    s.push_str("# Complete NRRD file format specification at:\n# http://teem.sourceforge.net/nrrd/format.html\n");
+    if let Some(c) = &h.content {
+        s.push_str(&format!("content: {}\n", c.replace('\n', " ")));
+    }
+    s.push_str(&format!("type: {}\n", h.scalar.as_str()));
+    s.push_str(&format!("dimension: {}\n", h.sizes.len()));
+    if let Some(sp) = &h.space {
+        s.push_str(&format!("space: {sp}\n"));
+    } else if let Some(d) = h.space_dimension {
+        s.push_str(&format!("space dimension: {d}\n"));
+    }
+    s.push_str(&format!(
+        "sizes: {}\n",
+        h.sizes.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+    ));
+    if let Some(d) = &h.space_directions {
+        let items: Vec<String> =
+            d.iter().map(|v| v.as_ref().map_or("none".to_string(), |v| vec3(v))).collect();
+        s.push_str(&format!("space directions: {}\n", items.join(" ")));
+    }
+    let list = |v: &[f64]| v.iter().map(|&x| fmt_f64(x)).collect::<Vec<_>>().join(" ");
+    if let Some(v) = &h.spacings {
+        s.push_str(&format!("spacings: {}\n", list(v)));
+    }
+    if let Some(v) = &h.axis_mins {
+        s.push_str(&format!("axis mins: {}\n", list(v)));
+    }
+    if let Some(v) = &h.axis_maxs {
+        s.push_str(&format!("axis maxs: {}\n", list(v)));
+    }
+    if let Some(c) = &h.centerings {
+        s.push_str(&format!(
+            "centerings: {}\n",
+            c.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" ")
+        ));
+    }
+    if let Some(k) = &h.kinds {
+        s.push_str(&format!("kinds: {}\n", k.join(" ")));
+    }
+    if let Some(l) = &h.labels {
+        s.push_str(&format!(
+            "labels: {}\n",
+            l.iter().map(|x| format!("\"{x}\"")).collect::<Vec<_>>().join(" ")
+        ));
+    }
+    if h.scalar.size() > 1 && opt.encoding != Encoding::Ascii {
+        s.push_str(match opt.endian {
+            Endian::Little => "endian: little\n",
+            Endian::Big => "endian: big\n",
+        });
+    }
+    s.push_str(&format!("encoding: {}\n", opt.encoding.as_str()));
+    if let Some(o) = &h.space_origin {
+        s.push_str(&format!("space origin: {}\n", vec3(o)));
+    }
+    for (k, v) in &h.key_values {
+        s.push_str(&format!("{k}:={v}\n"));
+    }
+    s.push('\n');
+    w.write_all(s.as_bytes()).map_err(io)?;
+    match opt.encoding {
+        Encoding::Ascii => {
+            let mut out = String::new();
+            let per_line = h.sizes.first().copied().unwrap_or(1).max(1);
+            for i in 0..n.data.len() {
+                let x = n.data.get_f64(i);
+                let t = match &n.data {
+                    super::Data::F32(v) => format!("{}", v[i]),
+                    _ => fmt_f64(x),
+                };
+                out.push_str(&t);
+                out.push(if (i + 1) % per_line == 0 { '\n' } else { ' ' });
+            }
+            w.write_all(out.as_bytes()).map_err(io)?;
+        }
+        enc => {
+            let bytes = to_bytes(n, opt.endian);
+            match enc {
+                Encoding::Raw => w.write_all(&bytes).map_err(io)?,
+                Encoding::Hex => {
+                    let mut out = String::with_capacity(bytes.len() * 2 + bytes.len() / 32);
+                    for (i, b) in bytes.iter().enumerate() {
+                        out.push_str(&format!("{b:02x}"));
+                        if (i + 1) % 32 == 0 {
+                            out.push('\n');
+                        }
+                    }
+                    out.push('\n');
+                    w.write_all(out.as_bytes()).map_err(io)?;
+                }
+                Encoding::Gzip => {
+                    let mut e = flate2::write::GzEncoder::new(w, flate2::Compression::new(6));
+                    e.write_all(&bytes).map_err(io)?;
+                    e.finish().map_err(io)?;
+                }
+                Encoding::Bzip2 => {
+                    let mut e = bzip2::write::BzEncoder::new(w, bzip2::Compression::new(6));
+                    e.write_all(&bytes).map_err(io)?;
+                    e.finish().map_err(io)?;
+                }
+                Encoding::Ascii => unreachable!("handled above"),
+            }
+        }
+    }
+    Ok(())
+}
+
+fn to_bytes(n: &Nrrd, e: Endian) -> Vec<u8> {
+    each_data!(&n.data, v => {
+        let mut out = Vec::with_capacity(v.len() * std::mem::size_of_val(&v[0..v.len().min(1)]).max(1));
+        for x in v {
+            match e {
+                Endian::Little => out.extend_from_slice(&x.to_le_bytes()),
+                Endian::Big => out.extend_from_slice(&x.to_be_bytes()),
+            }
+        }
+        out
+    })
+}
+
+/// Writes `n` to `path` (`-` = stdout) through a temporary file in the same directory,
+/// renamed into place only when everything was written.
+pub fn write(n: &Nrrd, path: &Path, opt: WriteOptions) -> Result<()> {
+    crate::files::write_atomic(path, |w| write_to(n, opt, w))
+}
