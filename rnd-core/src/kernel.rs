@@ -44,22 +44,23 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// Second derivative at `x`.
     fn d2<T: Float>(x: T) -> T;
 
-    /// Value weights for fractional position `alpha` (lowest index first).
+    /// Value weights for fractional position `alpha` (lowest index first). Evaluated
+    /// in f64 (the high-order pieces cancel badly in f32) and rounded to f32.
     #[inline(always)]
-    fn weights(alpha: f32) -> [f32; S] {
-        core::array::from_fn(|i| Self::k(alpha - (Self::LO + i as i32) as f32))
+    fn weights(alpha: f64) -> [f32; S] {
+        core::array::from_fn(|i| Self::k(alpha - (Self::LO + i as i32) as f64) as f32)
     }
     /// First-derivative weights for fractional position `alpha`.
     #[inline(always)]
-    fn weights_d1(alpha: f32) -> [f32; S] {
-        core::array::from_fn(|i| Self::d1(alpha - (Self::LO + i as i32) as f32))
+    fn weights_d1(alpha: f64) -> [f32; S] {
+        core::array::from_fn(|i| Self::d1(alpha - (Self::LO + i as i32) as f64) as f32)
     }
     /// Integer base index and fractional offset for index-space coordinate `x`
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
-    fn base(x: f64) -> (i64, f32) {
+    fn base(x: f64) -> (i64, f64) {
         let n = if S % 2 == 0 { crate::math::floor(x) } else { crate::math::floor(x + 0.5) };
-        (n as i64, (x - n) as f32)
+        (n as i64, x - n)
     }
 }
 

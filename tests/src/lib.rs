@@ -1,1 +1,105 @@
-//! tests
+//! Helpers shared by rendr's cross-crate tests: where `../shared` is, whether Teem is
+//! installed, and a naive reference convolution.
+//!
+//! Tests that need `../shared` or Teem call [`shared`] / [`teem`]: when the resource is
+//! absent they print `skipped: ...` and return `None`, unless `RENDR_REQUIRE_SHARED=1` /
+//! `RENDR_REQUIRE_TEEM=1` is set (CI), in which case absence is a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The workspace root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
+}
+
+fn required(var: &str) -> bool {
+    std::env::var(var).is_ok_and(|v| v == "1")
+}
+
+/// `../shared` beside the repository root, or None (after printing "skipped").
+pub fn shared(test: &str) -> Option<PathBuf> {
+    let p = root().join("..").join("shared");
+    if p.join("SPEC.md").exists() {
+        return Some(p);
+    }
+    if required("RENDR_REQUIRE_SHARED") {
+        panic!("{test}: ../shared is missing and RENDR_REQUIRE_SHARED=1");
+    }
+    eprintln!("skipped: {test}: ../shared is not present");
+    None
+}
+
+/// Whether the Teem program `prog` (e.g. `teem-unu`) runs; prints "skipped" when not.
+pub fn teem(test: &str, prog: &str) -> bool {
+    let ok = Command::new(prog).arg("--version").output().is_ok()
+        || Command::new(prog).output().is_ok();
+    if ok {
+        return true;
+    }
+    if required("RENDR_REQUIRE_TEEM") {
+        panic!("{test}: {prog} is missing and RENDR_REQUIRE_TEEM=1 (apt-get install teem-apps)");
+    }
+    eprintln!("skipped: {test}: {prog} is not installed (apt-get install teem-apps)");
+    false
+}
+
+/// A fresh temporary directory for one test.
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rendr-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create temp dir");
+    d
+}
+
+/// Runs `prog args...`, panicking with its stderr when it fails; returns stdout.
+pub fn run(prog: &str, args: &[&str]) -> String {
+    let out = Command::new(prog).args(args).output().unwrap_or_else(|e| panic!("{prog}: {e}"));
+    assert!(
+        out.status.success(),
+        "{prog} {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Naive convolution: evaluates the kernel for every voxel of the support, no
+/// separability, no caching, all in f64. Returns (inside, value, world gradient).
+pub fn naive_convo<V: rnd_core::voxel::Voxel>(
+    vol: &rnd_core::volume::Volume<'_, V>,
+    k: rnd_core::kernel::KernelName,
+    pos_w: [f64; 3],
+) -> (bool, f64, [f64; 3]) {
+    let x = vol.wtoi().point(pos_w);
+    let s = k.support() as i64;
+    let sizes = vol.sizes();
+    let mut lo = [0i64; 3];
+    for a in 0..3 {
+        let n = if s % 2 == 0 { x[a].floor() } else { (x[a] + 0.5).floor() } as i64;
+        lo[a] = n + k.lo() as i64;
+        if lo[a] < 0 || lo[a] + s > sizes[a] as i64 {
+            return (false, 0.0, [0.0; 3]);
+        }
+    }
+    let (mut v, mut g) = (0.0, [0.0; 3]);
+    for kk in lo[2]..lo[2] + s {
+        for jj in lo[1]..lo[1] + s {
+            for ii in lo[0]..lo[0] + s {
+                let d = vol.at(ii as usize, jj as usize, kk as usize).to_f32() as f64;
+                let (dx, dy, dz) = (x[0] - ii as f64, x[1] - jj as f64, x[2] - kk as f64);
+                let (kx, ky, kz) = (k.eval(dx, 0), k.eval(dy, 0), k.eval(dz, 0));
+                v += d * kx * ky * kz;
+                g[0] += d * k.eval(dx, 1) * ky * kz;
+                g[1] += d * kx * k.eval(dy, 1) * kz;
+                g[2] += d * kx * ky * k.eval(dz, 1);
+            }
+        }
+    }
+    let w = vol.wtoi();
+    let gw = [
+        w.at(0, 0) * g[0] + w.at(1, 0) * g[1] + w.at(2, 0) * g[2],
+        w.at(0, 1) * g[0] + w.at(1, 1) * g[1] + w.at(2, 1) * g[2],
+        w.at(0, 2) * g[0] + w.at(1, 2) * g[1] + w.at(2, 2) * g[2],
+    ];
+    (true, v, gw)
+}
