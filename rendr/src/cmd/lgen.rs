@@ -64,10 +64,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if len > 1 << 24 {
         bail!("-l: LUT length {len} is unreasonably large (max 16777216)");
     }
+    let lut = Lut::generate(ctxf.as_ref(), atxf.as_ref(), crs, ars, len, lo, hi)?;
     if ctxf.is_none() && atxf.is_none() {
         eprintln!("rendr lgen: warning: no transfer functions (both \"x\"): r,g,b,a = 1 everywhere");
     }
-    let lut = Lut::generate(ctxf.as_ref(), atxf.as_ref(), crs, ars, len, lo, hi)?;
     let data: Vec<f32> = lut.entries().iter().flatten().copied().collect();
     let mut n = Nrrd::new(vec![4, len], Data::F32(data))?;
     let h = &mut n.header;
