@@ -47,8 +47,20 @@ impl Opt {
 }
 
 /// Shorthand constructors for option tables.
-pub const fn req(names: &'static [&'static str], n: usize, meta: &'static str, help: &'static str) -> Opt {
-    Opt { names, arity: Arity::Fixed(n), default: None, required: true, meta, help }
+pub const fn req(
+    names: &'static [&'static str],
+    n: usize,
+    meta: &'static str,
+    help: &'static str,
+) -> Opt {
+    Opt {
+        names,
+        arity: Arity::Fixed(n),
+        default: None,
+        required: true,
+        meta,
+        help,
+    }
 }
 /// Optional option with a default.
 pub const fn def(
@@ -58,15 +70,41 @@ pub const fn def(
     meta: &'static str,
     help: &'static str,
 ) -> Opt {
-    Opt { names, arity: Arity::Fixed(n), default: Some(default), required: false, meta, help }
+    Opt {
+        names,
+        arity: Arity::Fixed(n),
+        default: Some(default),
+        required: false,
+        meta,
+        help,
+    }
 }
 /// Optional option without a default.
-pub const fn opt(names: &'static [&'static str], n: usize, meta: &'static str, help: &'static str) -> Opt {
-    Opt { names, arity: Arity::Fixed(n), default: None, required: false, meta, help }
+pub const fn opt(
+    names: &'static [&'static str],
+    n: usize,
+    meta: &'static str,
+    help: &'static str,
+) -> Opt {
+    Opt {
+        names,
+        arity: Arity::Fixed(n),
+        default: None,
+        required: false,
+        meta,
+        help,
+    }
 }
 /// A flag.
 pub const fn flag(names: &'static [&'static str], help: &'static str) -> Opt {
-    Opt { names, arity: Arity::Flag, default: None, required: false, meta: "", help }
+    Opt {
+        names,
+        arity: Arity::Flag,
+        default: None,
+        required: false,
+        meta: "",
+        help,
+    }
 }
 
 /// A positional parameter.
@@ -148,7 +186,9 @@ fn expand(argv: &[String], depth: usize, out: &mut Vec<String>) -> Result<(), Ar
     for a in argv {
         if let Some(f) = a.strip_prefix('@').filter(|f| !f.is_empty()) {
             if depth > 8 {
-                return Err(ArgError::Bad(format!("@{f}: response files nested too deeply")));
+                return Err(ArgError::Bad(format!(
+                    "@{f}: response files nested too deeply"
+                )));
             }
             let text = std::fs::read_to_string(f)
                 .map_err(|e| ArgError::Bad(format!("@{f}: can't read response file: {e}")))?;
@@ -257,7 +297,10 @@ pub fn parse(spec: &'static CmdSpec, argv: &[String]) -> Result<Args, ArgError> 
                     if loose.is_empty() && vals.is_empty() {
                         return Err(ArgError::Usage(String::new()));
                     }
-                    return Err(ArgError::Bad(format!("missing <{}> (at least {min} needed)", p.name)));
+                    return Err(ArgError::Bad(format!(
+                        "missing <{}> (at least {min} needed)",
+                        p.name
+                    )));
                 }
                 pos.push(loose[li..li + take].to_vec());
                 li += take;
@@ -271,8 +314,12 @@ pub fn parse(spec: &'static CmdSpec, argv: &[String]) -> Result<Args, ArgError> 
             loose[li], spec.name
         )));
     }
-    let missing: Vec<&str> =
-        spec.opts.iter().filter(|o| o.required && !vals.contains_key(o.name())).map(|o| o.name()).collect();
+    let missing: Vec<&str> = spec
+        .opts
+        .iter()
+        .filter(|o| o.required && !vals.contains_key(o.name()))
+        .map(|o| o.name())
+        .collect();
     if !missing.is_empty() {
         if vals.is_empty() && loose.is_empty() {
             return Err(ArgError::Usage(String::new()));
@@ -284,7 +331,12 @@ pub fn parse(spec: &'static CmdSpec, argv: &[String]) -> Result<Args, ArgError> 
             list.join(" ")
         )));
     }
-    Ok(Args { spec, vals, pos, tokens: toks })
+    Ok(Args {
+        spec,
+        vals,
+        pos,
+        tokens: toks,
+    })
 }
 
 /// Parses a boolean word.
@@ -357,7 +409,8 @@ pub fn parse_named<T: FromStr>(opt: &str, s: &str) -> Result<T, ArgError>
 where
     T::Err: std::fmt::Display,
 {
-    s.parse::<T>().map_err(|e| ArgError::Bad(format!("-{opt}: {e}")))
+    s.parse::<T>()
+        .map_err(|e| ArgError::Bad(format!("-{opt}: {e}")))
 }
 
 impl Args {
@@ -374,7 +427,9 @@ impl Args {
         if let Some(v) = self.vals.get(name) {
             return Some(v.clone());
         }
-        self.opt(name).default.map(|d| d.split_whitespace().map(str::to_string).collect())
+        self.opt(name)
+            .default
+            .map(|d| d.split_whitespace().map(str::to_string).collect())
     }
 
     /// Whether option `name` was given on the command line.
@@ -389,7 +444,9 @@ impl Args {
 
     /// The `n` values of option `name`.
     pub fn get_n<T: Value>(&self, name: &str) -> Result<Vec<T>, ArgError> {
-        let w = self.words(name).ok_or_else(|| ArgError::Bad(format!("-{name}: not given")))?;
+        let w = self
+            .words(name)
+            .ok_or_else(|| ArgError::Bad(format!("-{name}: not given")))?;
         w.iter()
             .map(|s| {
                 T::parse_word(s).ok_or_else(|| {
@@ -400,10 +457,16 @@ impl Args {
     }
 
     /// Exactly `N` values of option `name`.
-    pub fn get_arr<T: Value + Copy + Default, const N: usize>(&self, name: &str) -> Result<[T; N], ArgError> {
+    pub fn get_arr<T: Value + Copy + Default, const N: usize>(
+        &self,
+        name: &str,
+    ) -> Result<[T; N], ArgError> {
         let v = self.get_n::<T>(name)?;
         if v.len() != N {
-            return Err(ArgError::Bad(format!("-{name}: need {N} values, got {}", v.len())));
+            return Err(ArgError::Bad(format!(
+                "-{name}: need {N} values, got {}",
+                v.len()
+            )));
         }
         let mut a = [T::default(); N];
         a.copy_from_slice(&v);
@@ -428,12 +491,19 @@ impl Args {
 
 /// The short usage line(s) shown when required options are missing.
 pub fn usage(spec: &CmdSpec) -> String {
-    let mut s = format!("rendr {}: {}\nUsage: rendr {}", spec.name, spec.about, spec.name);
+    let mut s = format!(
+        "rendr {}: {}\nUsage: rendr {}",
+        spec.name, spec.about, spec.name
+    );
     if spec.response_files {
         s.push_str(" [@file ...]");
     }
     for o in spec.opts {
-        let m = if o.meta.is_empty() { String::new() } else { format!(" <{}>", o.meta) };
+        let m = if o.meta.is_empty() {
+            String::new()
+        } else {
+            format!(" <{}>", o.meta)
+        };
         if o.required {
             let _ = write!(s, " -{}{m}", o.name());
         } else {
@@ -454,13 +524,17 @@ pub fn help(spec: &CmdSpec) -> String {
     if !spec.info.is_empty() {
         let _ = write!(s, "\n\n{}", spec.info);
     }
-    s.push_str("\n");
+    s.push('\n');
     let rows: Vec<(String, String)> = spec
         .opts
         .iter()
         .map(|o| {
             let names: Vec<String> = o.names.iter().map(|n| format!("-{n}")).collect();
-            let m = if o.meta.is_empty() { String::new() } else { format!(" <{}>", o.meta) };
+            let m = if o.meta.is_empty() {
+                String::new()
+            } else {
+                format!(" <{}>", o.meta)
+            };
             let tail = if o.required {
                 " (required)".to_string()
             } else if let Some(d) = o.default {
@@ -470,9 +544,16 @@ pub fn help(spec: &CmdSpec) -> String {
             } else {
                 " (optional)".to_string()
             };
-            (format!("{}{m}", names.join(",")), format!("{}{tail}", o.help))
+            (
+                format!("{}{m}", names.join(",")),
+                format!("{}{tail}", o.help),
+            )
         })
-        .chain(spec.pos.iter().map(|p| (format!("<{}>", p.name), p.help.to_string())))
+        .chain(
+            spec.pos
+                .iter()
+                .map(|p| (format!("<{}>", p.name), p.help.to_string())),
+        )
         .collect();
     let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     for (a, b) in rows {

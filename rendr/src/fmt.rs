@@ -60,7 +60,9 @@ pub fn matrix(m: &rnd_core::affine::Affine4, f: fn(f64) -> String) -> String {
     let w = cells.iter().map(String::len).max().unwrap_or(1);
     let mut s = String::new();
     for r in 0..4 {
-        let row: Vec<String> = (0..4).map(|c| format!("{:>w$}", cells[4 * r + c])).collect();
+        let row: Vec<String> = (0..4)
+            .map(|c| format!("{:>w$}", cells[4 * r + c]))
+            .collect();
         s.push_str(&row.join(" "));
         s.push('\n');
     }

@@ -14,7 +14,11 @@ fn list_commands() -> String {
         "rendr: a direct volume renderer (ray casting through a convolution-reconstructed volume)\n\
          Usage: rendr <command> [options]; \"rendr <command> --help\" for a command's options\n\n",
     );
-    let w = cmd::COMMANDS.iter().map(|c| c.spec.name.len()).max().unwrap_or(0);
+    let w = cmd::COMMANDS
+        .iter()
+        .map(|c| c.spec.name.len())
+        .max()
+        .unwrap_or(0);
     for c in cmd::COMMANDS {
         s.push_str(&format!(" rendr {:w$} ... {}\n", c.spec.name, c.spec.about));
     }

@@ -9,7 +9,11 @@ fn rendr() -> Command {
 }
 
 fn run_in(dir: &Path, args: &[&str]) -> Output {
-    rendr().current_dir(dir).args(args).output().expect("run rendr")
+    rendr()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("run rendr")
 }
 
 fn ok(dir: &Path, args: &[&str]) -> String {
@@ -27,8 +31,16 @@ fn ok(dir: &Path, args: &[&str]) -> String {
 fn fails(dir: &Path, args: &[&str], frag: &str, out: Option<&str>) {
     let o = run_in(dir, args);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "rendr {args:?}: status {:?}, stderr {err}", o.status);
-    assert!(err.contains(frag), "rendr {args:?}: stderr {err:?} lacks {frag:?}");
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "rendr {args:?}: status {:?}, stderr {err}",
+        o.status
+    );
+    assert!(
+        err.contains(frag),
+        "rendr {args:?}: stderr {err:?} lacks {frag:?}"
+    );
     assert!(!err.contains("panicked"), "{err}");
     if let Some(f) = out {
         assert!(!dir.join(f).exists(), "rendr {args:?} left {f} behind");
@@ -41,7 +53,9 @@ fn fails(dir: &Path, args: &[&str], frag: &str, out: Option<&str>) {
 }
 
 fn corpus(name: &str) -> String {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/corpus/bad").join(name);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/corpus/bad")
+        .join(name);
     p.to_string_lossy().into_owned()
 }
 
@@ -55,8 +69,14 @@ fn no_arguments_lists_commands() {
     let o = rendr().output().unwrap();
     assert!(o.status.success());
     let s = String::from_utf8_lossy(&o.stdout);
-    for c in ["about", "4mi", "cam", "lgen", "levoy", "info", "sdg", "ceval", "klist", "go", "keval", "teval"] {
-        assert!(s.contains(&format!(" rendr {c} ")), "{c} missing from:\n{s}");
+    for c in [
+        "about", "4mi", "cam", "lgen", "levoy", "info", "sdg", "ceval", "klist", "go", "keval",
+        "teval",
+    ] {
+        assert!(
+            s.contains(&format!(" rendr {c} ")),
+            "{c} missing from:\n{s}"
+        );
     }
 }
 
@@ -66,15 +86,24 @@ fn help_and_usage() {
     let o = run_in(&d, &["go", "--help"]);
     assert!(o.status.success());
     let s = String::from_utf8_lossy(&o.stdout);
-    assert!(s.contains("-s,--planesep <sep>") && s.contains("(default: \"0.1\")"), "{s}");
+    assert!(
+        s.contains("-s,--planesep <sep>") && s.contains("(default: \"0.1\")"),
+        "{s}"
+    );
     // Missing required options: short usage, exit 1.
     let o = run_in(&d, &["cam"]);
     assert_eq!(o.status.code(), Some(1));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("Usage: rendr cam [@file ...] -fr <x y z>"), "{e}");
+    assert!(
+        e.contains("Usage: rendr cam [@file ...] -fr <x y z>"),
+        "{e}"
+    );
     assert!(e.contains("\"rendr cam --help\" for more information"));
     // Every command has help text.
-    for c in ["about", "4mi", "m4ai", "cam", "teval", "lgen", "levoy", "ceval", "go", "klist", "keval", "info", "sdg"] {
+    for c in [
+        "about", "4mi", "m4ai", "cam", "teval", "lgen", "levoy", "ceval", "go", "klist", "keval",
+        "info", "sdg",
+    ] {
         let o = run_in(&d, &[c, "--help"]);
         assert!(o.status.success(), "{c} --help");
         assert!(!o.stdout.is_empty());
@@ -96,9 +125,30 @@ fn cam_prints_spec_numbers() {
     assert!(s.contains("-0.894427 0.447214 0 = u"));
     assert!(s.contains("0.419058 0.838116 0.349215 = n"));
     // A later option overrides the response file's.
-    let s = ok(&d, &["cam", "@cube-cam.txt", "-fov", "14", "-nc", "-2.3", "-fc", "2.3", "-sz", "320", "280"]);
-    assert!(s.contains("14 = FOV") && s.contains("12.0178 = ncv") && s.contains("3.51601 = hght"), "{s}");
-    assert!(s.contains("4.0183 = wdth") && s.contains("1.14286 = ar"), "{s}");
+    let s = ok(
+        &d,
+        &[
+            "cam",
+            "@cube-cam.txt",
+            "-fov",
+            "14",
+            "-nc",
+            "-2.3",
+            "-fc",
+            "2.3",
+            "-sz",
+            "320",
+            "280",
+        ],
+    );
+    assert!(
+        s.contains("14 = FOV") && s.contains("12.0178 = ncv") && s.contains("3.51601 = hght"),
+        "{s}"
+    );
+    assert!(
+        s.contains("4.0183 = wdth") && s.contains("1.14286 = ar"),
+        "{s}"
+    );
     // -v: view-space origin is the eye.
     assert!(s.contains("0 0 0 1 (view) -> 6 12 5 1 (world)"), "{s}");
 }
@@ -107,29 +157,89 @@ fn cam_prints_spec_numbers() {
 fn option_errors_are_one_line() {
     let d = rnd_tests::tmpdir("opterr");
     std::fs::write(d.join("c.txt"), CUBE_CAM).unwrap();
-    fails(&d, &["cam", "@c.txt", "-fov", "abc"], "-fov: can't parse \"abc\" as a real number", None);
-    fails(&d, &["cam", "@c.txt", "-zoom", "2"], "unknown option \"-zoom\"", None);
-    fails(&d, &["cam", "-fr", "1", "2", "3"], "missing required options -at -up -nc -fc -fov -sz", None);
-    fails(&d, &["cam", "@c.txt", "-at", "6", "12", "5"], "look-from equals look-at", None);
-    fails(&d, &["cam", "@c.txt", "-up", "6", "12", "5"], "parallel", None);
-    fails(&d, &["cam", "@c.txt", "-fov", "170"], "-fov: need 0 < FOV < 160", None);
+    fails(
+        &d,
+        &["cam", "@c.txt", "-fov", "abc"],
+        "-fov: can't parse \"abc\" as a real number",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "@c.txt", "-zoom", "2"],
+        "unknown option \"-zoom\"",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "-fr", "1", "2", "3"],
+        "missing required options -at -up -nc -fc -fov -sz",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "@c.txt", "-at", "6", "12", "5"],
+        "look-from equals look-at",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "@c.txt", "-up", "6", "12", "5"],
+        "parallel",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "@c.txt", "-fov", "170"],
+        "-fov: need 0 < FOV < 160",
+        None,
+    );
     fails(&d, &["cam", "@c.txt", "-sz", "0", "10"], "-sz", None);
     fails(&d, &["cam", "@c.txt", "-fov", "nan"], "-fov", None);
-    fails(&d, &["cam", "@nothere.txt"], "@nothere.txt: can't read response file", None);
-    fails(&d, &["cam", "@c.txt", "-fr", "1", "2"], "-fr: needs 3 values", None);
-    fails(&d, &["lgen", "-i", "x", "x", "-mm", "0", "1", "-o", "l.nrrd", "-rs", "maybe", "no"], "-rs: can't parse \"maybe\" as a boolean", Some("l.nrrd"));
+    fails(
+        &d,
+        &["cam", "@nothere.txt"],
+        "@nothere.txt: can't read response file",
+        None,
+    );
+    fails(
+        &d,
+        &["cam", "@c.txt", "-fr", "1", "2"],
+        "-fr: needs 3 values",
+        None,
+    );
+    fails(
+        &d,
+        &[
+            "lgen", "-i", "x", "x", "-mm", "0", "1", "-o", "l.nrrd", "-rs", "maybe", "no",
+        ],
+        "-rs: can't parse \"maybe\" as a boolean",
+        Some("l.nrrd"),
+    );
 }
 
 #[test]
 fn bool_words_and_negative_numbers() {
     let d = rnd_tests::tmpdir("bools");
-    for w in ["true", "false", "yes", "no", "on", "off", "1", "0", "TRUE", "t", "n"] {
+    for w in [
+        "true", "false", "yes", "no", "on", "off", "1", "0", "TRUE", "t", "n",
+    ] {
         // "-rs false <w>": rescaling opacity without an opacity txf is an error, so
         // only false words may succeed; true words must be refused with that message.
-        let args = ["lgen", "-i", "x", "x", "-mm", "-1", "-0.5", "-rs", "false", w, "-l", "4", "-o", "l.nrrd"];
-        let is_true = matches!(w.to_ascii_lowercase().as_str(), "true" | "yes" | "on" | "1" | "t");
+        let args = [
+            "lgen", "-i", "x", "x", "-mm", "-1", "-0.5", "-rs", "false", w, "-l", "4", "-o",
+            "l.nrrd",
+        ];
+        let is_true = matches!(
+            w.to_ascii_lowercase().as_str(),
+            "true" | "yes" | "on" | "1" | "t"
+        );
         if is_true {
-            fails(&d, &args, "can't rescale opacity without an opacity txf", None);
+            fails(
+                &d,
+                &args,
+                "can't rescale opacity without an opacity txf",
+                None,
+            );
         } else {
             ok(&d, &args);
         }
@@ -148,7 +258,13 @@ fn m4ai_inverts() {
     for name in ["4mi", "m4ai"] {
         let s = ok(&d, &[name, "mat.txt"]);
         let ai = s.split("Ai =\n").nth(1).unwrap();
-        let row0: Vec<f64> = ai.lines().next().unwrap().split_whitespace().map(|w| w.parse().unwrap()).collect();
+        let row0: Vec<f64> = ai
+            .lines()
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|w| w.parse().unwrap())
+            .collect();
         assert_eq!(row0, vec![0.5, 0.0, 0.0, -0.5], "{s}");
         let last = s.lines().last().unwrap();
         assert!(last.ends_with("= FrobeniusNorm(P-I)   (should be nearly zero)"));
@@ -169,20 +285,35 @@ fn keval_and_klist() {
     assert!(s.contains("Bspln3(0.3)= 0.590166667"), "{s}");
     assert!(s.contains("dBspln3(0.3)= -0.465"));
     let s = ok(&d, &["keval", "ctmr", "0.5", "-d", "2"]);
-    assert!(s.contains("Ctmr(0.5)= 0.5625") && s.contains("dCtmr(0.5)= -1.375") && s.contains("ddCtmr(0.5)= -0.5"));
+    assert!(
+        s.contains("Ctmr(0.5)= 0.5625")
+            && s.contains("dCtmr(0.5)= -1.375")
+            && s.contains("ddCtmr(0.5)= -0.5")
+    );
     let s = ok(&d, &["keval", "Bspln3", "0", "-a", "0.3"]);
-    assert!(s.contains("0.0571666667 0.590166667 0.348166667 0.0045 = Bspln3 weights at alpha=0.3"), "{s}");
+    assert!(
+        s.contains("0.0571666667 0.590166667 0.348166667 0.0045 = Bspln3 weights at alpha=0.3"),
+        "{s}"
+    );
     let s = ok(&d, &["klist"]);
     for k in ["Box", "Tent", "Bspln2", "Bspln3", "Ctmr", "C4hexic"] {
         assert!(s.contains(&format!("=== {k}")), "{s}");
     }
-    fails(&d, &["keval", "cubic", "0"], "unknown kernel \"cubic\"", None);
+    fails(
+        &d,
+        &["keval", "cubic", "0"],
+        "unknown kernel \"cubic\"",
+        None,
+    );
 }
 
 #[test]
 fn sdg_and_info_geometry() {
     let d = rnd_tests::tmpdir("sdg");
-    ok(&d, &["sdg", "-w", "0", "-sz", "3", "4", "5", "-o", "a.nrrd"]);
+    ok(
+        &d,
+        &["sdg", "-w", "0", "-sz", "3", "4", "5", "-o", "a.nrrd"],
+    );
     let n = rnd_std::nrrd::read(&d.join("a.nrrd")).unwrap();
     let dirs = n.header.space_directions.clone().unwrap();
     let want = [[2.0 / 3.0, 0., 0.], [0., 0.5, 0.], [0., 0., 0.4]];
@@ -192,41 +323,84 @@ fn sdg_and_info_geometry() {
         }
     }
     let o = n.header.space_origin.clone().unwrap();
-    assert!((o[0] + 2.0 / 3.0).abs() < 1e-12 && (o[1] + 0.75).abs() < 1e-12 && (o[2] + 0.8).abs() < 1e-12);
-    assert_eq!(n.header.content.as_deref(), Some("rendr sdg -w 0 -sz 3 4 5 -o a.nrrd"));
-    ok(&d, &["sdg", "-sz", "3", "4", "5", "-c", "1", "2", "3", "-l", "3", "4", "5", "-sh", "0.5", "0", "0", "-r", "0", "0", "1", "-o", "b.nrrd"]);
+    assert!(
+        (o[0] + 2.0 / 3.0).abs() < 1e-12
+            && (o[1] + 0.75).abs() < 1e-12
+            && (o[2] + 0.8).abs() < 1e-12
+    );
+    assert_eq!(
+        n.header.content.as_deref(),
+        Some("rendr sdg -w 0 -sz 3 4 5 -o a.nrrd")
+    );
+    ok(
+        &d,
+        &[
+            "sdg", "-sz", "3", "4", "5", "-c", "1", "2", "3", "-l", "3", "4", "5", "-sh", "0.5",
+            "0", "0", "-r", "0", "0", "1", "-o", "b.nrrd",
+        ],
+    );
     let s = ok(&d, &["info", "b.nrrd"]);
-    assert!(s.contains("3 by 4 by 5 volume with type real voxels"), "{s}");
+    assert!(
+        s.contains("3 by 4 by 5 volume with type real voxels"),
+        "{s}"
+    );
     // Columns (0,1,0), (-1,0.5,0), (0,0,1), origin (2.5, 0.25, 1).
     let v = rnd_std::volume_io::load_volume(&d.join("b.nrrd")).unwrap();
     let m = v.itow;
     let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
     assert!(close(m.column3(0), [0., 1., 0.]) && close(m.column3(1), [-1., 0.5, 0.]));
     assert!(close(m.column3(2), [0., 0., 1.]) && close(m.column3(3), [2.5, 0.25, 1.]));
-    ok(&d, &["sdg", "-w", "8", "-sz", "3", "4", "5", "-o", "c.nrrd"]);
+    ok(
+        &d,
+        &["sdg", "-w", "8", "-sz", "3", "4", "5", "-o", "c.nrrd"],
+    );
     let (_, vals) = read_floats(&d.join("c.nrrd"));
     let one = vals.iter().position(|&x| x == 1.0).unwrap();
     assert_eq!(one, 1 + 3 * (2 + 4 * 2));
     assert_eq!(vals.iter().filter(|&&x| x != 0.0).count(), 1);
     // Short output with -vs: round(f * sval / fval).
-    ok(&d, &["sdg", "-w", "0", "-sz", "3", "4", "5", "-t", "short", "-vs", "1", "100", "-o", "s.nrrd"]);
+    ok(
+        &d,
+        &[
+            "sdg", "-w", "0", "-sz", "3", "4", "5", "-t", "short", "-vs", "1", "100", "-o",
+            "s.nrrd",
+        ],
+    );
     let n = rnd_std::nrrd::read(&d.join("s.nrrd")).unwrap();
     assert_eq!(n.header.scalar, rnd_std::nrrd::ScalarType::I16);
     // z of the first slice is -0.8 -> f = 0.8 -> 80.
     assert_eq!(n.data.get_f64(0), 80.0);
-    fails(&d, &["sdg", "-w", "99", "-o", "x.nrrd"], "-w: unknown function 99", Some("x.nrrd"));
-    fails(&d, &["sdg", "-sz", "100000", "100000", "100000", "-o", "x.nrrd"], "would need", Some("x.nrrd"));
+    fails(
+        &d,
+        &["sdg", "-w", "99", "-o", "x.nrrd"],
+        "-w: unknown function 99",
+        Some("x.nrrd"),
+    );
+    fails(
+        &d,
+        &["sdg", "-sz", "100000", "100000", "100000", "-o", "x.nrrd"],
+        "would need",
+        Some("x.nrrd"),
+    );
 }
 
 #[test]
 fn info_on_cube_matches_spec() {
-    let Some(sh) = rnd_tests::shared("info_on_cube_matches_spec") else { return };
+    let Some(sh) = rnd_tests::shared("info_on_cube_matches_spec") else {
+        return;
+    };
     let d = rnd_tests::tmpdir("info-cube");
     let cube = sh.join("rendr-data/cube.nrrd");
     let s = ok(&d, &["info", cube.to_str().unwrap()]);
     assert!(s.contains("50 by 70 by 90 volume with type real voxels"));
-    assert!(s.contains("[0.00234545162, 1.00001502] is range of values"), "{s}");
-    assert!(s.contains(" 0.0799999982 0.0571428575 0.0444444455 (average"), "{s}");
+    assert!(
+        s.contains("[0.00234545162, 1.00001502] is range of values"),
+        "{s}"
+    );
+    assert!(
+        s.contains(" 0.0799999982 0.0571428575 0.0444444455 (average"),
+        "{s}"
+    );
     assert!(s.contains("90 (0/1), 90 (0/2), 90 (1/2)"));
 }
 
@@ -235,7 +409,10 @@ fn info_on_cube_matches_spec() {
 #[test]
 fn sdg_zramp_holds_minus_z() {
     let d = rnd_tests::tmpdir("zramp");
-    let common = ["-w", "0", "-l", "5", "5", "5", "-sz", "20", "25", "30", "-r", "0.5", "0.6", "-0.3", "-sh", "0.1", "-0.2", "0.3", "-c", "0.1", "-0.1", "0.3"];
+    let common = [
+        "-w", "0", "-l", "5", "5", "5", "-sz", "20", "25", "30", "-r", "0.5", "0.6", "-0.3", "-sh",
+        "0.1", "-0.2", "0.3", "-c", "0.1", "-0.1", "0.3",
+    ];
     let mut a: Vec<&str> = vec!["sdg"];
     a.extend(common);
     let mut f = a.clone();
@@ -253,7 +430,11 @@ fn sdg_zramp_holds_minus_z() {
                 for i in 0..s0 {
                     let w = v.itow.point([i as f64, j as f64, k as f64]);
                     let x = n.data.get_f64(i + s0 * (j + s1 * k));
-                    assert!((x - (-w[2] * scale)).abs() <= tol * (1.0 + w[2].abs()), "{file} ({i},{j},{k}): {x} vs {}", -w[2] * scale);
+                    assert!(
+                        (x - (-w[2] * scale)).abs() <= tol * (1.0 + w[2].abs()),
+                        "{file} ({i},{j},{k}): {x} vs {}",
+                        -w[2] * scale
+                    );
                 }
             }
         }
@@ -268,7 +449,10 @@ fn ceval_zramps() {
         &["-sz", "25", "25", "25"],
         &["-sz", "20", "25", "30"],
         &["-sz", "20", "25", "30", "-r", "0.5", "0.6", "-0.3"],
-        &["-sz", "20", "25", "30", "-r", "0.5", "0.6", "-0.3", "-sh", "0.1", "-0.2", "0.3", "-c", "0.1", "-0.1", "0.3"],
+        &[
+            "-sz", "20", "25", "30", "-r", "0.5", "0.6", "-0.3", "-sh", "0.1", "-0.2", "0.3", "-c",
+            "0.1", "-0.1", "0.3",
+        ],
     ];
     for (x, extra) in zr.iter().enumerate() {
         let name = format!("zramp{x}.nrrd");
@@ -276,29 +460,88 @@ fn ceval_zramps() {
         a.extend_from_slice(extra);
         ok(&d, &a);
         let sname = format!("zramp{x}-us.nrrd");
-        let mut a = vec!["sdg", "-w", "0", "-l", "5", "5", "5", "-o", &sname, "-t", "short", "-vs", "4", "10000"];
+        let mut a = vec![
+            "sdg", "-w", "0", "-l", "5", "5", "5", "-o", &sname, "-t", "short", "-vs", "4", "10000",
+        ];
         a.extend_from_slice(extra);
         ok(&d, &a);
         for k in ["tent", "bspln2", "bspln3", "ctmr", "c4hexic"] {
             for (f, scale) in [(&name, 1.0), (&sname, 2500.0)] {
-                let s = ok(&d, &["ceval", "-i", f, "-k", k, "-w", "0.2", "0.4", "0.8", "-g", "true"]);
+                let s = ok(
+                    &d,
+                    &[
+                        "ceval", "-i", f, "-k", k, "-w", "0.2", "0.4", "0.8", "-g", "true",
+                    ],
+                );
                 let mut lines = s.lines();
-                let v: f64 = lines.next().unwrap().split_whitespace().next().unwrap().parse().unwrap();
+                let v: f64 = lines
+                    .next()
+                    .unwrap()
+                    .split_whitespace()
+                    .next()
+                    .unwrap()
+                    .parse()
+                    .unwrap();
                 assert!((v / scale + 0.8).abs() < 2e-4, "{f} {k}: {s}");
-                let g: Vec<f64> = lines.next().unwrap().split_whitespace().take(3).map(|w| w.parse().unwrap()).collect();
-                assert!(g[0].abs() / scale < 2e-3 && g[1].abs() / scale < 2e-3 && (g[2] / scale + 1.0).abs() < 2e-3, "{f} {k}: {s}");
+                let g: Vec<f64> = lines
+                    .next()
+                    .unwrap()
+                    .split_whitespace()
+                    .take(3)
+                    .map(|w| w.parse().unwrap())
+                    .collect();
+                assert!(
+                    g[0].abs() / scale < 2e-3
+                        && g[1].abs() / scale < 2e-3
+                        && (g[2] / scale + 1.0).abs() < 2e-3,
+                    "{f} {k}: {s}"
+                );
             }
         }
     }
-    let s = ok(&d, &["ceval", "-i", "zramp0.nrrd", "-k", "tent", "-w", "9", "0", "0"]);
+    let s = ok(
+        &d,
+        &[
+            "ceval",
+            "-i",
+            "zramp0.nrrd",
+            "-k",
+            "tent",
+            "-w",
+            "9",
+            "0",
+            "0",
+        ],
+    );
     assert!(s.starts_with("outside =rndConvoEval"), "{s}");
-    let s = ok(&d, &["ceval", "-i", "zramp0.nrrd", "-k", "tent", "-w", "0", "0", "0", "-wtoi"]);
+    let s = ok(
+        &d,
+        &[
+            "ceval",
+            "-i",
+            "zramp0.nrrd",
+            "-k",
+            "tent",
+            "-w",
+            "0",
+            "0",
+            "0",
+            "-wtoi",
+        ],
+    );
     assert!(s.starts_with("12 12 12 = WtoI(0 0 0)"), "{s}");
 }
 
 fn seed_cube(d: &Path) {
-    ok(d, &["sdg", "-w", "2", "-l", "4", "4", "4", "-o", "cube.nrrd"]);
-    std::fs::write(d.join("cube-cam.txt"), "-fr 6 12 5 -at 0 0 0\n-up 0 0 1\n-nc -2.56304 -fc 2.56304 -fov 16\n-sz 300 300\n").unwrap();
+    ok(
+        d,
+        &["sdg", "-w", "2", "-l", "4", "4", "4", "-o", "cube.nrrd"],
+    );
+    std::fs::write(
+        d.join("cube-cam.txt"),
+        "-fr 6 12 5 -at 0 0 0\n-up 0 0 1\n-nc -2.56304 -fc 2.56304 -fov 16\n-sz 300 300\n",
+    )
+    .unwrap();
 }
 
 fn go(d: &Path, extra: &[&str]) {
@@ -312,7 +555,12 @@ fn go(d: &Path, extra: &[&str]) {
 fn seed_go_walkthrough() {
     let d = rnd_tests::tmpdir("seedgo");
     seed_cube(&d);
-    go(&d, &["-s", "0", "-k", "box", "-p", "pv", "-b", "sum", "-o", "pv.nrrd"]);
+    go(
+        &d,
+        &[
+            "-s", "0", "-k", "box", "-p", "pv", "-b", "sum", "-o", "pv.nrrd",
+        ],
+    );
     let (s, pv) = read_floats(&d.join("pv.nrrd"));
     assert_eq!(s, vec![3, 300, 300]);
     // Third view coordinate = -ncv everywhere.
@@ -320,19 +568,46 @@ fn seed_go_walkthrough() {
     // Corners: symmetric, (-x, +y) at the top left.
     let c00 = &pv[0..3];
     let cmm = &pv[3 * (299 + 300 * 299)..3 * (299 + 300 * 299) + 3];
-    assert!(c00[0] < 0.0 && c00[1] > 0.0 && (c00[0] + cmm[0]).abs() < 1e-6 && (c00[1] + cmm[1]).abs() < 1e-6);
+    assert!(
+        c00[0] < 0.0
+            && c00[1] > 0.0
+            && (c00[0] + cmm[0]).abs() < 1e-6
+            && (c00[1] + cmm[1]).abs() < 1e-6
+    );
     // pw = VtoW(pv); pi = WtoI(pw).
-    go(&d, &["-s", "0", "-k", "box", "-p", "pw", "-b", "sum", "-o", "pw.nrrd"]);
-    go(&d, &["-s", "0", "-k", "box", "-p", "pi", "-b", "sum", "-o", "pi.nrrd"]);
+    go(
+        &d,
+        &[
+            "-s", "0", "-k", "box", "-p", "pw", "-b", "sum", "-o", "pw.nrrd",
+        ],
+    );
+    go(
+        &d,
+        &[
+            "-s", "0", "-k", "box", "-p", "pi", "-b", "sum", "-o", "pi.nrrd",
+        ],
+    );
     let (_, pw) = read_floats(&d.join("pw.nrrd"));
     let (_, pi) = read_floats(&d.join("pi.nrrd"));
     let cam = rnd_core::camera::Camera::new(rnd_core::camera::CameraSpec {
-        fr: [6., 12., 5.], at: [0.; 3], up: [0., 0., 1.], nc: -2.56304, fc: 2.56304, fov: 16., size: [300, 300], ortho: false,
-    }).unwrap();
+        fr: [6., 12., 5.],
+        at: [0.; 3],
+        up: [0., 0., 1.],
+        nc: -2.56304,
+        fc: 2.56304,
+        fov: 16.,
+        size: [300, 300],
+        ortho: false,
+    })
+    .unwrap();
     let vol = rnd_std::volume_io::load_volume(&d.join("cube.nrrd")).unwrap();
     let wtoi = vol.itow.affine_inverse().unwrap();
     for px in [0usize, 777, 45_000, 89_999] {
-        let v = [pv[3 * px] as f64, pv[3 * px + 1] as f64, pv[3 * px + 2] as f64];
+        let v = [
+            pv[3 * px] as f64,
+            pv[3 * px + 1] as f64,
+            pv[3 * px + 2] as f64,
+        ];
         let w = cam.vtow.point(v);
         let i = wtoi.point(w);
         for c in 0..3 {
@@ -341,9 +616,27 @@ fn seed_go_walkthrough() {
         }
     }
     // pv0 (-s 0 -fc 3) equals pv1 (-s 1 -fc -1.5) exactly.
-    go(&d, &["-s", "0", "-nc", "-2", "-fc", "3", "-k", "box", "-p", "pv", "-b", "sum", "-o", "pv0.nrrd"]);
-    go(&d, &["-s", "1", "-nc", "-2", "-fc", "-1.5", "-k", "box", "-p", "pv", "-b", "sum", "-o", "pv1.nrrd"]);
-    go(&d, &["-s", "1", "-nc", "-2", "-fc", "-0.5", "-k", "box", "-p", "pv", "-b", "sum", "-o", "pv2.nrrd"]);
+    go(
+        &d,
+        &[
+            "-s", "0", "-nc", "-2", "-fc", "3", "-k", "box", "-p", "pv", "-b", "sum", "-o",
+            "pv0.nrrd",
+        ],
+    );
+    go(
+        &d,
+        &[
+            "-s", "1", "-nc", "-2", "-fc", "-1.5", "-k", "box", "-p", "pv", "-b", "sum", "-o",
+            "pv1.nrrd",
+        ],
+    );
+    go(
+        &d,
+        &[
+            "-s", "1", "-nc", "-2", "-fc", "-0.5", "-k", "box", "-p", "pv", "-b", "sum", "-o",
+            "pv2.nrrd",
+        ],
+    );
     let (_, pv0) = read_floats(&d.join("pv0.nrrd"));
     let (_, pv1) = read_floats(&d.join("pv1.nrrd"));
     let (_, pv2) = read_floats(&d.join("pv2.nrrd"));
@@ -353,17 +646,85 @@ fn seed_go_walkthrough() {
     assert!(step.chunks(3).all(|s| (s[2] + 1.0).abs() < 1e-4));
     assert!(step[0] < 0.0 && step[1] > 0.0 && (step[0] + step[3 * 89_999]).abs() < 1e-4);
     // Orthographic: every step the same (0, 0, -1).
-    go(&d, &["-s", "1", "-nc", "-2", "-fc", "-1.5", "-k", "box", "-p", "pv", "-b", "sum", "-ortho", "-o", "pv1o.nrrd"]);
-    go(&d, &["-s", "1", "-nc", "-2", "-fc", "-0.5", "-k", "box", "-p", "pv", "-b", "sum", "-ortho", "-o", "pv2o.nrrd"]);
+    go(
+        &d,
+        &[
+            "-s",
+            "1",
+            "-nc",
+            "-2",
+            "-fc",
+            "-1.5",
+            "-k",
+            "box",
+            "-p",
+            "pv",
+            "-b",
+            "sum",
+            "-ortho",
+            "-o",
+            "pv1o.nrrd",
+        ],
+    );
+    go(
+        &d,
+        &[
+            "-s",
+            "1",
+            "-nc",
+            "-2",
+            "-fc",
+            "-0.5",
+            "-k",
+            "box",
+            "-p",
+            "pv",
+            "-b",
+            "sum",
+            "-ortho",
+            "-o",
+            "pv2o.nrrd",
+        ],
+    );
     let (_, a) = read_floats(&d.join("pv1o.nrrd"));
     let (_, b) = read_floats(&d.join("pv2o.nrrd"));
     let stepo: Vec<f32> = b.iter().zip(&a).map(|(x, y)| x - 2.0 * y).collect();
-    assert!(stepo.chunks(3).all(|s| s[0].abs() < 1e-5 && s[1].abs() < 1e-5 && (s[2] + 1.0).abs() < 1e-5));
+    assert!(stepo
+        .chunks(3)
+        .all(|s| s[0].abs() < 1e-5 && s[1].abs() < 1e-5 && (s[2] + 1.0).abs() < 1e-5));
     // v and in: the visible triangle (inside region) shrinks with kernel support.
     let mut covered = Vec::new();
     for k in ["box", "tent", "bspln3"] {
-        go(&d, &["-s", "0", "-k", k, "-p", "in", "-b", "sum", "-o", &format!("in-{k}.nrrd")]);
-        go(&d, &["-s", "0", "-k", k, "-p", "v", "-b", "sum", "-o", &format!("v-{k}.nrrd")]);
+        go(
+            &d,
+            &[
+                "-s",
+                "0",
+                "-k",
+                k,
+                "-p",
+                "in",
+                "-b",
+                "sum",
+                "-o",
+                &format!("in-{k}.nrrd"),
+            ],
+        );
+        go(
+            &d,
+            &[
+                "-s",
+                "0",
+                "-k",
+                k,
+                "-p",
+                "v",
+                "-b",
+                "sum",
+                "-o",
+                &format!("v-{k}.nrrd"),
+            ],
+        );
         let (_, inside) = read_floats(&d.join(format!("in-{k}.nrrd")));
         let (_, v) = read_floats(&d.join(format!("v-{k}.nrrd")));
         let n = inside.iter().filter(|&&x| x == 1.0).count();
@@ -372,12 +733,43 @@ fn seed_go_walkthrough() {
         assert!(inside.iter().zip(&v).all(|(i, v)| *i == 1.0 || *v == 0.0));
         covered.push(n);
     }
-    assert!(covered[0] > covered[1] && covered[1] > covered[2] && covered[2] > 0, "{covered:?}");
+    assert!(
+        covered[0] > covered[1] && covered[1] > covered[2] && covered[2] > 0,
+        "{covered:?}"
+    );
     // Blends: max <= sum; mean = sum / count (box keeps every sample in count).
     for b in ["max", "sum", "mean"] {
-        go(&d, &["-s", "0.1", "-k", "box", "-p", "v", "-b", b, "-o", &format!("p-{b}.nrrd")]);
+        go(
+            &d,
+            &[
+                "-s",
+                "0.1",
+                "-k",
+                "box",
+                "-p",
+                "v",
+                "-b",
+                b,
+                "-o",
+                &format!("p-{b}.nrrd"),
+            ],
+        );
     }
-    go(&d, &["-s", "0.1", "-k", "box", "-p", "in", "-b", "sum", "-o", "p-count.nrrd"]);
+    go(
+        &d,
+        &[
+            "-s",
+            "0.1",
+            "-k",
+            "box",
+            "-p",
+            "in",
+            "-b",
+            "sum",
+            "-o",
+            "p-count.nrrd",
+        ],
+    );
     let (_, mx) = read_floats(&d.join("p-max.nrrd"));
     let (_, sm) = read_floats(&d.join("p-sum.nrrd"));
     let (_, mn) = read_floats(&d.join("p-mean.nrrd"));
@@ -385,7 +777,10 @@ fn seed_go_walkthrough() {
     for i in 0..mx.len() {
         if cnt[i] > 0.0 {
             assert!(mx[i] <= sm[i] + 1e-6 && mn[i] <= mx[i] + 1e-6);
-            assert!((mn[i] - sm[i] / cnt[i]).abs() <= 1e-5 * (1.0 + sm[i].abs()), "px {i}");
+            assert!(
+                (mn[i] - sm[i] / cnt[i]).abs() <= 1e-5 * (1.0 + sm[i].abs()),
+                "px {i}"
+            );
         }
     }
     // cube-rgb and cube-dc render (PNG directly, and NRRD with 4 channels).
@@ -393,11 +788,72 @@ fn seed_go_walkthrough() {
     if let Some(sh) = sh {
         let rd = sh.join("rendr-data");
         let atxf = rd.join("cube-atxf1.txt");
-        ok(&d, &["lgen", "-i", "x", atxf.to_str().unwrap(), "-mm", "0", "1", "-o", "lut.nrrd"]);
+        ok(
+            &d,
+            &[
+                "lgen",
+                "-i",
+                "x",
+                atxf.to_str().unwrap(),
+                "-mm",
+                "0",
+                "1",
+                "-o",
+                "lut.nrrd",
+            ],
+        );
         let rgb = rd.join("rgb.txt");
         let one = rd.join("1.txt");
-        go(&d, &["-us", "0.03", "-s", "0.03", "-k", "ctmr", "-p", "rgbalit", "-b", "over", "-lut", "lut.nrrd", "-lit", rgb.to_str().unwrap(), "-o", "cube-rgb.nrrd"]);
-        go(&d, &["-us", "0.03", "-s", "0.03", "-k", "ctmr", "-p", "rgbalit", "-b", "over", "-lut", "lut.nrrd", "-lit", one.to_str().unwrap(), "-dcn", "1.2", "1.1", "0.9", "-dcf", "0.2", "0.3", "0.4", "-o", "cube-dc.png"]);
+        go(
+            &d,
+            &[
+                "-us",
+                "0.03",
+                "-s",
+                "0.03",
+                "-k",
+                "ctmr",
+                "-p",
+                "rgbalit",
+                "-b",
+                "over",
+                "-lut",
+                "lut.nrrd",
+                "-lit",
+                rgb.to_str().unwrap(),
+                "-o",
+                "cube-rgb.nrrd",
+            ],
+        );
+        go(
+            &d,
+            &[
+                "-us",
+                "0.03",
+                "-s",
+                "0.03",
+                "-k",
+                "ctmr",
+                "-p",
+                "rgbalit",
+                "-b",
+                "over",
+                "-lut",
+                "lut.nrrd",
+                "-lit",
+                one.to_str().unwrap(),
+                "-dcn",
+                "1.2",
+                "1.1",
+                "0.9",
+                "-dcf",
+                "0.2",
+                "0.3",
+                "0.4",
+                "-o",
+                "cube-dc.png",
+            ],
+        );
         let (s, v) = read_floats(&d.join("cube-rgb.nrrd"));
         assert_eq!(s, vec![4, 300, 300]);
         assert!(v.chunks(4).filter(|p| p[3] > 0.5).count() > 10_000);
@@ -411,7 +867,10 @@ fn seed_go_walkthrough() {
 fn bad_input_corpus() {
     let d = rnd_tests::tmpdir("bad");
     seed_cube(&d);
-    ok(&d, &["lgen", "-i", "x", "x", "-mm", "0", "1", "-o", "lut.nrrd"]);
+    ok(
+        &d,
+        &["lgen", "-i", "x", "x", "-mm", "0", "1", "-o", "lut.nrrd"],
+    );
     std::fs::write(d.join("lit.txt"), "#space:=rgb\n1 1 1 0 0 1 1\n").unwrap();
     let vol_cases: &[(&str, &str)] = &[
         ("bad-magic.nrrd", "bad magic"),
@@ -419,7 +878,10 @@ fn bad_input_corpus() {
         ("gzip-garbage.nrrd", "can't be decompressed"),
         ("sizes-overflow.nrrd", "overflow"),
         ("huge-claim.nrrd", "would need"),
-        ("dimension-mismatch.nrrd", "sizes: 2 values but dimension is 3"),
+        (
+            "dimension-mismatch.nrrd",
+            "sizes: 2 values but dimension is 3",
+        ),
         ("singular-directions.nrrd", "singular"),
         ("ragged.txt", "ragged rows"),
         ("unknown-type.nrrd", "unknown or unsupported type"),
@@ -428,32 +890,120 @@ fn bad_input_corpus() {
     for (f, frag) in vol_cases {
         let p = corpus(f);
         fails(&d, &["info", &p], frag, None);
-        fails(&d, &["go", "@cube-cam.txt", "-i", &p, "-k", "tent", "-o", "out.nrrd"], frag, Some("out.nrrd"));
+        fails(
+            &d,
+            &[
+                "go",
+                "@cube-cam.txt",
+                "-i",
+                &p,
+                "-k",
+                "tent",
+                "-o",
+                "out.nrrd",
+            ],
+            frag,
+            Some("out.nrrd"),
+        );
     }
     let go_base = ["go", "@cube-cam.txt", "-i", "cube.nrrd", "-k", "tent"];
     let go_cases: &[(&[&str], &str)] = &[
-        (&["-p", "v", "-b", "over", "-o", "o.nrrd"], "with over blend, must probe rgba or rgbalit"),
+        (
+            &["-p", "v", "-b", "over", "-o", "o.nrrd"],
+            "with over blend, must probe rgba or rgbalit",
+        ),
         (&["-p", "rgba", "-o", "o.nrrd"], "needs a LUT (-lut)"),
-        (&["-p", "rgbalit", "-lut", "lut.nrrd", "-o", "o.nrrd"], "needs lights (-lit)"),
-        (&["-p", "rgba", "-lut", &corpus("lut-3-channels.nrrd"), "-o", "o.nrrd"], "axis 0 has size 3, need 4"),
-        (&["-p", "rgba", "-lut", &corpus("lut-vmin-vmax.nrrd"), "-o", "o.nrrd"], "needs finite min < max"),
-        (&["-p", "rgbalit", "-lut", "lut.nrrd", "-lit", &corpus("light-zero-dir.txt"), "-o", "o.nrrd"], "zero length"),
-        (&["-p", "rgbalit", "-lut", "lut.nrrd", "-lit", &corpus("light-6-columns.txt"), "-o", "o.nrrd"], "need 7 columns"),
-        (&["-p", "rgba", "-lut", "lut.nrrd", "-lev", &corpus("levoy-2-columns.txt"), "-o", "o.nrrd"], "need 3 columns"),
-        (&["-at", "6", "12", "5", "-o", "o.nrrd"], "look-from equals look-at"),
+        (
+            &["-p", "rgbalit", "-lut", "lut.nrrd", "-o", "o.nrrd"],
+            "needs lights (-lit)",
+        ),
+        (
+            &[
+                "-p",
+                "rgba",
+                "-lut",
+                &corpus("lut-3-channels.nrrd"),
+                "-o",
+                "o.nrrd",
+            ],
+            "axis 0 has size 3, need 4",
+        ),
+        (
+            &[
+                "-p",
+                "rgba",
+                "-lut",
+                &corpus("lut-vmin-vmax.nrrd"),
+                "-o",
+                "o.nrrd",
+            ],
+            "needs finite min < max",
+        ),
+        (
+            &[
+                "-p",
+                "rgbalit",
+                "-lut",
+                "lut.nrrd",
+                "-lit",
+                &corpus("light-zero-dir.txt"),
+                "-o",
+                "o.nrrd",
+            ],
+            "zero length",
+        ),
+        (
+            &[
+                "-p",
+                "rgbalit",
+                "-lut",
+                "lut.nrrd",
+                "-lit",
+                &corpus("light-6-columns.txt"),
+                "-o",
+                "o.nrrd",
+            ],
+            "need 7 columns",
+        ),
+        (
+            &[
+                "-p",
+                "rgba",
+                "-lut",
+                "lut.nrrd",
+                "-lev",
+                &corpus("levoy-2-columns.txt"),
+                "-o",
+                "o.nrrd",
+            ],
+            "need 3 columns",
+        ),
+        (
+            &["-at", "6", "12", "5", "-o", "o.nrrd"],
+            "look-from equals look-at",
+        ),
         (&["-s", "-1", "-o", "o.nrrd"], "-s: plane separation"),
         (&["-us", "0", "-o", "o.nrrd"], "-us: unit step"),
         (&["-a1", "1.5", "-o", "o.nrrd"], "-a1: alphaNear1"),
         (&["-p", "colour", "-o", "o.nrrd"], "unknown probe"),
         (&["-b", "min", "-o", "o.nrrd"], "unknown blend"),
         (&["-k", "cubic", "-o", "o.nrrd"], "unknown kernel"),
-        (&["-nc", "3", "-fc", "2", "-o", "o.nrrd"], "must be less than far clip"),
+        (
+            &["-nc", "3", "-fc", "2", "-o", "o.nrrd"],
+            "must be less than far clip",
+        ),
         (&["-fov", "inf", "-o", "o.nrrd"], "-fov"),
         (&["-o", "cube.nrrd"], "output would overwrite the input"),
         (&["-o", "nodir/o.nrrd"], "can't create output"),
-        (&["-i", "missing.nrrd", "-o", "o.nrrd"], "missing.nrrd: can't read"),
+        (
+            &["-i", "missing.nrrd", "-o", "o.nrrd"],
+            "missing.nrrd: can't read",
+        ),
         (&["-db", "400", "0"], "-db: pixel"),
-        (&["-q", "1", "0", "-o", "o.png"], "-q: need finite min < max"),
+        (
+            &["-q", "1", "0", "-o", "o.png"],
+            "-q: need finite min < max",
+        ),
     ];
     for (extra, frag) in go_cases {
         let mut a: Vec<&str> = go_base.to_vec();
@@ -468,14 +1018,66 @@ fn bad_input_corpus() {
         ("txf-nan.txt", "non-finite"),
     ];
     for (f, frag) in txf_cases {
-        fails(&d, &["lgen", "-i", "x", &corpus(f), "-mm", "0", "1", "-o", "l2.nrrd"], frag, Some("l2.nrrd"));
+        fails(
+            &d,
+            &[
+                "lgen",
+                "-i",
+                "x",
+                &corpus(f),
+                "-mm",
+                "0",
+                "1",
+                "-o",
+                "l2.nrrd",
+            ],
+            frag,
+            Some("l2.nrrd"),
+        );
         fails(&d, &["teval", &corpus(f), "0.5"], frag, None);
     }
-    fails(&d, &["lgen", "-i", "x", "x", "-mm", "1", "1", "-o", "l2.nrrd"], "-mm: need finite min < max", Some("l2.nrrd"));
-    fails(&d, &["levoy", "-i", &corpus("levoy-2-columns.txt"), "-mm", "0", "1", "-gm", "1", "-o", "l3.nrrd"], "need 3 columns", Some("l3.nrrd"));
+    fails(
+        &d,
+        &["lgen", "-i", "x", "x", "-mm", "1", "1", "-o", "l2.nrrd"],
+        "-mm: need finite min < max",
+        Some("l2.nrrd"),
+    );
+    fails(
+        &d,
+        &[
+            "levoy",
+            "-i",
+            &corpus("levoy-2-columns.txt"),
+            "-mm",
+            "0",
+            "1",
+            "-gm",
+            "1",
+            "-o",
+            "l3.nrrd",
+        ],
+        "need 3 columns",
+        Some("l3.nrrd"),
+    );
     // An existing output survives a failed run byte for byte.
     std::fs::write(d.join("keep.nrrd"), b"precious").unwrap();
-    fails(&d, &["go", "@cube-cam.txt", "-i", "cube.nrrd", "-k", "tent", "-p", "rgba", "-o", "keep.nrrd"], "needs a LUT", None);
+    fails(
+        &d,
+        &[
+            "go",
+            "@cube-cam.txt",
+            "-i",
+            "cube.nrrd",
+            "-k",
+            "tent",
+            "-p",
+            "rgba",
+            "-o",
+            "keep.nrrd",
+        ],
+        "needs a LUT",
+        None,
+    );
     assert_eq!(std::fs::read(d.join("keep.nrrd")).unwrap(), b"precious");
 }
 
@@ -483,9 +1085,31 @@ fn bad_input_corpus() {
 fn db_traces_one_ray() {
     let d = rnd_tests::tmpdir("db");
     seed_cube(&d);
-    let s = ok(&d, &["go", "@cube-cam.txt", "-i", "cube.nrrd", "-k", "tent", "-s", "0.5", "-db", "150", "150"]);
-    assert!(s.contains("pixel (150, 150):") && s.contains("length of ray step") && s.contains("sample 0:"));
-    let samples = s.lines().filter(|l| l.trim_start().starts_with("sample ")).count();
+    let s = ok(
+        &d,
+        &[
+            "go",
+            "@cube-cam.txt",
+            "-i",
+            "cube.nrrd",
+            "-k",
+            "tent",
+            "-s",
+            "0.5",
+            "-db",
+            "150",
+            "150",
+        ],
+    );
+    assert!(
+        s.contains("pixel (150, 150):")
+            && s.contains("length of ray step")
+            && s.contains("sample 0:")
+    );
+    let samples = s
+        .lines()
+        .filter(|l| l.trim_start().starts_with("sample "))
+        .count();
     // depth span 2 * 2.56304 with planes 0.5 apart: 11 samples.
     assert_eq!(samples, 11, "{s}");
     assert!(s.lines().last().unwrap().starts_with("result: "));
@@ -496,13 +1120,31 @@ fn readme_default_render() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let d = rnd_tests::tmpdir("readme");
     let out = d.join("head.png");
-    let o = rendr().current_dir(&root).args(["go", "@data/head.txt", "-o", out.to_str().unwrap()]).output().unwrap();
+    let o = rendr()
+        .current_dir(&root)
+        .args(["go", "@data/head.txt", "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let png = std::fs::read(&out).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     // The bundled LUT is exactly what lgen makes from the bundled control points.
     let lut2 = d.join("lut.nrrd");
-    let o = rendr().current_dir(&root).args(["lgen", "-i", "data/skin-rgb.txt", "data/skin-alpha.txt", "-mm", "0", "255", "-o", lut2.to_str().unwrap()]).output().unwrap();
+    let o = rendr()
+        .current_dir(&root)
+        .args([
+            "lgen",
+            "-i",
+            "data/skin-rgb.txt",
+            "data/skin-alpha.txt",
+            "-mm",
+            "0",
+            "255",
+            "-o",
+            lut2.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
     assert!(o.status.success());
     let a = rnd_std::nrrd::read(&lut2).unwrap();
     let b = rnd_std::nrrd::read(&root.join("data/head-lut.nrrd")).unwrap();

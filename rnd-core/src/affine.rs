@@ -18,8 +18,11 @@ impl Default for Affine4 {
 
 impl Affine4 {
     /// The identity.
-    pub const IDENTITY: Affine4 =
-        Affine4 { m: [1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.] };
+    pub const IDENTITY: Affine4 = Affine4 {
+        m: [
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ],
+    };
 
     /// From sixteen row-major entries.
     pub fn from_rows(m: [f64; 16]) -> Self {
@@ -109,7 +112,10 @@ impl Affine4 {
     /// scale) or not finite.
     pub fn affine_inverse(&self) -> Result<Affine4> {
         if !self.is_finite() {
-            return Err(Error::new(ErrorKind::Matrix, "matrix has non-finite entries"));
+            return Err(Error::new(
+                ErrorKind::Matrix,
+                "matrix has non-finite entries",
+            ));
         }
         let det = self.det3();
         let scale: f64 = (0..3)
@@ -178,7 +184,9 @@ mod tests {
 
     #[test]
     fn inverse_of_known_matrix() {
-        let a = Affine4::from_rows([2., 0., 0., 1., 0., 4., 0., 2., 0., 0., 8., 3., 0., 0., 0., 1.]);
+        let a = Affine4::from_rows([
+            2., 0., 0., 1., 0., 4., 0., 2., 0., 0., 8., 3., 0., 0., 0., 1.,
+        ]);
         let i = a.affine_inverse().unwrap();
         assert_eq!(i.point([1., 2., 3.]), [0.0, 0.0, 0.0]);
         assert!(a.mul(&i).frobenius_from_identity() < 1e-15);
@@ -186,7 +194,9 @@ mod tests {
 
     #[test]
     fn singular_is_refused() {
-        let a = Affine4::from_rows([1., 2., 3., 0., 2., 4., 6., 0., 0., 0., 1., 0., 0., 0., 0., 1.]);
+        let a = Affine4::from_rows([
+            1., 2., 3., 0., 2., 4., 6., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ]);
         assert_eq!(a.affine_inverse().unwrap_err().kind, ErrorKind::Matrix);
     }
 }

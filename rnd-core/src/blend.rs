@@ -41,12 +41,15 @@ impl fmt::Display for Blend {
 impl FromStr for Blend {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self, Error> {
-        Blend::ALL.into_iter().find(|b| b.as_str().eq_ignore_ascii_case(s)).ok_or_else(|| {
-            Error::new(
-                ErrorKind::Name,
-                alloc::format!("unknown blend \"{s}\" (known: max sum mean over)"),
-            )
-        })
+        Blend::ALL
+            .into_iter()
+            .find(|b| b.as_str().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::Name,
+                    alloc::format!("unknown blend \"{s}\" (known: max sum mean over)"),
+                )
+            })
     }
 }
 
@@ -67,7 +70,12 @@ impl Accum {
     /// Empty accumulator.
     #[inline]
     pub fn new(blend: Blend, len: usize) -> Self {
-        Accum { blend, len, acc: [0.0; 4], count: 0 }
+        Accum {
+            blend,
+            len,
+            acc: [0.0; 4],
+            count: 0,
+        }
     }
 
     /// Blends one counted sample `x` (for `over`: un-premultiplied rgb and corrected α).

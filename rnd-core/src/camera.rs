@@ -33,7 +33,7 @@ pub struct CameraSpec {
 pub struct Camera {
     /// The inputs it was built from.
     pub spec: CameraSpec,
-    /// Aspect ratio size[0] / size[1].
+    /// Aspect ratio `size[0] / size[1]`.
     pub ar: f64,
     /// Distance |fr − at| (world units).
     pub d: f64,
@@ -70,7 +70,10 @@ impl Camera {
         let up = DVec3::from_array(spec.up);
         for (name, x) in [("fr", spec.fr), ("at", spec.at), ("up", spec.up)] {
             if !math::v3::finite(x) {
-                return Err(cam_err(format!("-{name}: not all finite ({} {} {})", x[0], x[1], x[2])));
+                return Err(cam_err(format!(
+                    "-{name}: not all finite ({} {} {})",
+                    x[0], x[1], x[2]
+                )));
             }
         }
         for (name, x) in [("nc", spec.nc), ("fc", spec.fc), ("fov", spec.fov)] {
@@ -79,7 +82,10 @@ impl Camera {
             }
         }
         if !(spec.fov > 0.0 && spec.fov < 160.0) {
-            return Err(cam_err(format!("-fov: need 0 < FOV < 160 degrees (got {})", spec.fov)));
+            return Err(cam_err(format!(
+                "-fov: need 0 < FOV < 160 degrees (got {})",
+                spec.fov
+            )));
         }
         if spec.size[0] == 0 || spec.size[1] == 0 {
             return Err(cam_err(format!(
@@ -142,7 +148,20 @@ impl Camera {
             0.,
             1.,
         ]);
-        Ok(Camera { spec, ar, d, u, v, n, wtov, vtow, ncv, fcv, hght, wdth })
+        Ok(Camera {
+            spec,
+            ar,
+            d,
+            u,
+            v,
+            n,
+            wtov,
+            vtow,
+            ncv,
+            fcv,
+            hght,
+            wdth,
+        })
     }
 
     /// Image-plane position (u, v) of the centre of pixel (hi, vi); vi = 0 is the top row

@@ -82,7 +82,10 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// Convolution at index-space point `pos_i`.
     #[inline]
     pub fn eval_index(&mut self, pos_i: [f64; 3], grad: bool) -> ConvoSample {
-        let mut out = ConvoSample { pos_i, ..ConvoSample::default() };
+        let mut out = ConvoSample {
+            pos_i,
+            ..ConvoSample::default()
+        };
         let mut n = [0i64; 3];
         let mut alpha = [0.0f64; 3];
         for a in 0..3 {

@@ -37,7 +37,10 @@ pub struct Error {
 impl Error {
     /// Builds an error from a kind and a message.
     pub fn new(kind: ErrorKind, msg: impl Into<String>) -> Self {
-        Error { kind, msg: msg.into() }
+        Error {
+            kind,
+            msg: msg.into(),
+        }
     }
 }
 

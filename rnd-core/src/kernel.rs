@@ -35,7 +35,11 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     const NAME: KernelName;
     /// Offset of the first sample relative to the base index: `1 - S/2` for even S,
     /// `-(S-1)/2` for odd S.
-    const LO: i32 = if S % 2 == 0 { 1 - (S as i32) / 2 } else { -((S as i32 - 1) / 2) };
+    const LO: i32 = if S % 2 == 0 {
+        1 - (S as i32) / 2
+    } else {
+        -((S as i32 - 1) / 2)
+    };
 
     /// Kernel value at `x`.
     fn k<T: Float>(x: T) -> T;
@@ -59,7 +63,11 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
     fn base(x: f64) -> (i64, f64) {
-        let n = if S % 2 == 0 { crate::math::floor(x) } else { crate::math::floor(x + 0.5) };
+        let n = if S % 2 == 0 {
+            crate::math::floor(x)
+        } else {
+            crate::math::floor(x + 0.5)
+        };
         (n as i64, x - n)
     }
 }
@@ -273,11 +281,44 @@ impl Kernel<6> for C4Hexic {
     fn k<T: Float>(x: T) -> T {
         let t = x.abs();
         if t < T::one() {
-            poly([69. / 80., 0., -23. / 16., 0., 19. / 16., -7. / 12., 1. / 16.], t)
+            poly(
+                [
+                    69. / 80.,
+                    0.,
+                    -23. / 16.,
+                    0.,
+                    19. / 16.,
+                    -7. / 12.,
+                    1. / 16.,
+                ],
+                t,
+            )
         } else if t < c(2.0) {
-            poly([3. / 160., 35. / 8., -341. / 32., 10., -147. / 32., 25. / 24., -3. / 32.], t)
+            poly(
+                [
+                    3. / 160.,
+                    35. / 8.,
+                    -341. / 32.,
+                    10.,
+                    -147. / 32.,
+                    25. / 24.,
+                    -3. / 32.,
+                ],
+                t,
+            )
         } else if t < c(3.0) {
-            poly([1539. / 160., -189. / 8., 747. / 32., -12., 109. / 32., -61. / 120., 1. / 32.], t)
+            poly(
+                [
+                    1539. / 160.,
+                    -189. / 8.,
+                    747. / 32.,
+                    -12.,
+                    109. / 32.,
+                    -61. / 120.,
+                    1. / 32.,
+                ],
+                t,
+            )
         } else {
             T::zero()
         }
@@ -287,9 +328,29 @@ impl Kernel<6> for C4Hexic {
         let d = if t < T::one() {
             poly([0., -23. / 8., 0., 19. / 4., -35. / 12., 3. / 8.], t)
         } else if t < c(2.0) {
-            poly([35. / 8., -341. / 16., 30., -147. / 8., 125. / 24., -9. / 16.], t)
+            poly(
+                [
+                    35. / 8.,
+                    -341. / 16.,
+                    30.,
+                    -147. / 8.,
+                    125. / 24.,
+                    -9. / 16.,
+                ],
+                t,
+            )
         } else if t < c(3.0) {
-            poly([-189. / 8., 747. / 16., -36., 109. / 8., -61. / 24., 3. / 16.], t)
+            poly(
+                [
+                    -189. / 8.,
+                    747. / 16.,
+                    -36.,
+                    109. / 8.,
+                    -61. / 24.,
+                    3. / 16.,
+                ],
+                t,
+            )
         } else {
             T::zero()
         };
@@ -432,14 +493,17 @@ impl fmt::Display for KernelName {
 impl FromStr for KernelName {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self, Error> {
-        KernelName::ALL.into_iter().find(|k| k.as_str().eq_ignore_ascii_case(s)).ok_or_else(|| {
-            Error::new(
-                ErrorKind::Name,
-                alloc::format!(
+        KernelName::ALL
+            .into_iter()
+            .find(|k| k.as_str().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::Name,
+                    alloc::format!(
                     "unknown kernel \"{s}\" (known: zero, box, tent, bspln2, bspln3, ctmr, c4hexic)"
                 ),
-            )
-        })
+                )
+            })
     }
 }
 

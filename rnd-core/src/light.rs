@@ -22,10 +22,16 @@ impl Light {
     /// Checks the light: finite colour and direction, non-zero direction.
     pub fn new(rgb: [f32; 3], dir: [f64; 3], view: bool) -> Result<Light> {
         if rgb.iter().any(|c| !c.is_finite()) || !v3::finite(dir) {
-            return Err(Error::new(ErrorKind::Light, "light has a non-finite number"));
+            return Err(Error::new(
+                ErrorKind::Light,
+                "light has a non-finite number",
+            ));
         }
         if v3::len(dir) == 0.0 {
-            return Err(Error::new(ErrorKind::Light, "light direction has zero length"));
+            return Err(Error::new(
+                ErrorKind::Light,
+                "light direction has zero length",
+            ));
         }
         Ok(Light { rgb, dir, view })
     }
@@ -57,7 +63,12 @@ pub struct Phong {
 
 impl Default for Phong {
     fn default() -> Self {
-        Phong { ka: 0.2, kd: 0.8, ks: 0.1, p: 150.0 }
+        Phong {
+            ka: 0.2,
+            kd: 0.8,
+            ks: 0.1,
+            p: 150.0,
+        }
     }
 }
 
@@ -91,7 +102,13 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
 /// `m` material colour, `g` world gradient, `vdir` unit direction from the sample to the
 /// eye.
 #[inline]
-pub fn blinn_phong(ph: &Phong, lights: &WorldLights, m: [f32; 3], g: [f32; 3], vdir: [f32; 3]) -> [f32; 3] {
+pub fn blinn_phong(
+    ph: &Phong,
+    lights: &WorldLights,
+    m: [f32; 3],
+    g: [f32; 3],
+    vdir: [f32; 3],
+) -> [f32; 3] {
     let amb = [ph.ka * m[0], ph.ka * m[1], ph.ka * m[2]];
     let gl = math::sqrtf(dot3(g, g));
     if lights.lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {

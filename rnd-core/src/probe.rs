@@ -71,7 +71,7 @@ impl Probe {
         }
     }
     /// Number of output channels.
-    pub fn len(self) -> usize {
+    pub fn length(self) -> usize {
         match self {
             Probe::PosView | Probe::PosWorld | Probe::PosIndex | Probe::GradVec => 3,
             Probe::Inside | Probe::Value | Probe::GradMag => 1,
@@ -103,13 +103,16 @@ impl FromStr for Probe {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self, Error> {
         let l = s.to_ascii_lowercase();
-        Probe::ALL.into_iter().find(|p| p.aliases().contains(&l.as_str())).ok_or_else(|| {
-            Error::new(
-                ErrorKind::Name,
-                alloc::format!(
-                    "unknown probe \"{s}\" (known: pv pw pi in v gv gm rgba rgbalit)"
-                ),
-            )
-        })
+        Probe::ALL
+            .into_iter()
+            .find(|p| p.aliases().contains(&l.as_str()))
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::Name,
+                    alloc::format!(
+                        "unknown probe \"{s}\" (known: pv pw pi in v gv gm rgba rgbalit)"
+                    ),
+                )
+            })
     }
 }

@@ -2,7 +2,7 @@
 //! compile-time dispatch on (voxel type, kernel).
 //!
 //! Probing (what a sample measures) and blending (how samples combine, [`Accum`]) are
-//! separate steps: [`RenderSpec::sample`] fills a probe vector, [`Accum::add`] blends it.
+//! separate steps: `RenderSpec::probe` fills a probe vector, [`Accum::add`] blends it.
 
 use alloc::vec::Vec;
 
@@ -10,7 +10,7 @@ use crate::blend::{Accum, Blend};
 use crate::camera::{Camera, CameraSpec};
 use crate::convo::{Convo, ConvoSample};
 use crate::error::{Error, ErrorKind, Result};
-use crate::kernel::{Bspln2, Bspln3, BoxK, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
+use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
@@ -100,19 +100,36 @@ impl<'a> RenderSpec<'a> {
         let camera = Camera::new(params.camera)?;
         let once = params.sample_once || params.plane_sep == 0.0;
         if !params.plane_sep.is_finite() || params.plane_sep < 0.0 {
-            return Err(rerr(format!("-s: plane separation {} must be >= 0", params.plane_sep)));
+            return Err(rerr(format!(
+                "-s: plane separation {} must be >= 0",
+                params.plane_sep
+            )));
         }
         if !(params.unit_step.is_finite() && params.unit_step > 0.0) {
-            return Err(rerr(format!("-us: unit step {} must be finite and > 0", params.unit_step)));
+            return Err(rerr(format!(
+                "-us: unit step {} must be finite and > 0",
+                params.unit_step
+            )));
         }
         if !(params.alpha_near1 > 0.0 && params.alpha_near1 <= 1.0) {
-            return Err(rerr(format!("-a1: alphaNear1 {} must be in (0, 1]", params.alpha_near1)));
+            return Err(rerr(format!(
+                "-a1: alphaNear1 {} must be in (0, 1]",
+                params.alpha_near1
+            )));
         }
         let ph = params.phong;
         if ![ph.ka, ph.kd, ph.ks, ph.p].iter().all(|x| x.is_finite()) {
-            return Err(rerr(format!("-ph: need finite values (got {} {} {} {})", ph.ka, ph.kd, ph.ks, ph.p)));
+            return Err(rerr(format!(
+                "-ph: need finite values (got {} {} {} {})",
+                ph.ka, ph.kd, ph.ks, ph.p
+            )));
         }
-        if params.dcn.iter().chain(params.dcf.iter()).any(|x| !x.is_finite()) {
+        if params
+            .dcn
+            .iter()
+            .chain(params.dcf.iter())
+            .any(|x| !x.is_finite())
+        {
             return Err(rerr("-dcn/-dcf: depth-cue colours must be finite".into()));
         }
         if params.blend == Blend::Over && !params.probe.is_colour() {
@@ -131,9 +148,18 @@ impl<'a> RenderSpec<'a> {
             || params.probe == Probe::GradMag
             || params.probe == Probe::RgbaLit
             || (params.probe == Probe::Rgba && levoy.is_some());
-        let channels = params.probe.len() + usize::from(params.time);
+        let channels = params.probe.length() + usize::from(params.time);
         let lights = WorldLights::new(lights, &camera);
-        Ok(RenderSpec { params, camera, lut, levoy, lights, channels, need_grad, once })
+        Ok(RenderSpec {
+            params,
+            camera,
+            lut,
+            levoy,
+            lights,
+            channels,
+            need_grad,
+            once,
+        })
     }
 
     /// Image width and height.
@@ -187,13 +213,21 @@ impl RenderSpec<'_> {
     /// Geometry of the ray through pixel (hi, vi).
     pub fn ray_geom(&self, hi: u32, vi: u32) -> RayGeom {
         let cam = &self.camera;
-        let ps = if self.once { 0.0 } else { self.params.plane_sep };
+        let ps = if self.once {
+            0.0
+        } else {
+            self.params.plane_sep
+        };
         let (start_v, step_v) = cam.ray(hi, vi, ps);
         // Direction to the eye from a unit-separation step (valid also when ps = 0).
         let (_, dir_v) = cam.ray(hi, vi, 1.0);
         let dir_w = cam.vtow.vector(dir_v);
         let dl = math::v3::len(dir_w);
-        let to_eye = [(-dir_w[0] / dl) as f32, (-dir_w[1] / dl) as f32, (-dir_w[2] / dl) as f32];
+        let to_eye = [
+            (-dir_w[0] / dl) as f32,
+            (-dir_w[1] / dl) as f32,
+            (-dir_w[2] / dl) as f32,
+        ];
         let step_w = cam.vtow.vector(step_v);
         RayGeom {
             start_v,
@@ -277,15 +311,14 @@ impl RenderSpec<'_> {
         let start_i = wtoi.point(g.start_w);
         let step_i = wtoi.vector(g.step_w);
         let needs_convo = p.probe.needs_convo();
-        let mut acc = Accum::new(p.blend, p.probe.len());
+        let mut acc = Accum::new(p.blend, p.probe.length());
         let over = p.blend == Blend::Over;
         let fcv = self.camera.fcv;
         let mut k: u32 = 0;
         loop {
             let kf = k as f64;
-            let at = |s: &[f64; 3], d: &[f64; 3]| {
-                [s[0] + kf * d[0], s[1] + kf * d[1], s[2] + kf * d[2]]
-            };
+            let at =
+                |s: &[f64; 3], d: &[f64; 3]| [s[0] + kf * d[0], s[1] + kf * d[1], s[2] + kf * d[2]];
             let pos_v = at(&g.start_v, &g.step_v);
             if k > 0 && -pos_v[2] > fcv {
                 break;
@@ -295,7 +328,10 @@ impl RenderSpec<'_> {
             let cs = if needs_convo {
                 convo.eval_index(pos_i, self.need_grad)
             } else {
-                ConvoSample { pos_i, ..ConvoSample::default() }
+                ConvoSample {
+                    pos_i,
+                    ..ConvoSample::default()
+                }
             };
             let mut pr = [0.0f32; 4];
             let counted = self.probe(&pos_v, &pos_w, &cs, &g, &mut pr);
@@ -303,7 +339,15 @@ impl RenderSpec<'_> {
                 acc.add(&pr);
             }
             if let Some(t) = trace.as_deref_mut() {
-                t(&SampleInfo { k, pos_v, pos_w, convo: cs, probe: pr, counted, accum: acc });
+                t(&SampleInfo {
+                    k,
+                    pos_v,
+                    pos_w,
+                    convo: cs,
+                    probe: pr,
+                    counted,
+                    accum: acc,
+                });
             }
             if self.once {
                 break;
@@ -328,7 +372,7 @@ impl RenderSpec<'_> {
     ) {
         let w = self.size()[0] as usize;
         let ch = self.channels;
-        let plen = self.params.probe.len();
+        let plen = self.params.probe.length();
         debug_assert_eq!(out.len(), rows.len() * w * ch);
         for (r, vi) in rows.enumerate() {
             for hi in 0..w {

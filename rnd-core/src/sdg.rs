@@ -46,9 +46,17 @@ impl Grid {
         if self.sizes.contains(&0) {
             return Err(Error::new(ErrorKind::Sdg, "-sz: sizes must be > 0"));
         }
-        let all = self.lengths.iter().chain(&self.shear).chain(&self.rot).chain(&self.centre);
+        let all = self
+            .lengths
+            .iter()
+            .chain(&self.shear)
+            .chain(&self.rot)
+            .chain(&self.centre);
         if all.clone().any(|x| !x.is_finite()) {
-            return Err(Error::new(ErrorKind::Sdg, "-l/-sh/-r/-c: need finite numbers"));
+            return Err(Error::new(
+                ErrorKind::Sdg,
+                "-l/-sh/-r/-c: need finite numbers",
+            ));
         }
         if self.lengths.iter().any(|&l| l <= 0.0) {
             return Err(Error::new(ErrorKind::Sdg, "-l: edge lengths must be > 0"));
@@ -62,9 +70,21 @@ impl Grid {
             (1.0 / l, a / l, b / l, c / l)
         };
         let r = [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y - w * z),
+                2.0 * (x * z + w * y),
+            ],
+            [
+                2.0 * (x * y + w * z),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z - w * x),
+            ],
+            [
+                2.0 * (x * z - w * y),
+                2.0 * (y * z + w * x),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
         ];
         let mut m = [[0.0; 3]; 3];
         for (i, row) in m.iter_mut().enumerate() {
@@ -78,7 +98,8 @@ impl Grid {
         });
         let col = |j: usize| [m[0][j], m[1][j], m[2][j]];
         let a = Affine4::from_columns(col(0), col(1), col(2), o);
-        a.affine_inverse().map_err(|e| Error::new(ErrorKind::Sdg, alloc::format!("grid: {}", e.msg)))?;
+        a.affine_inverse()
+            .map_err(|e| Error::new(ErrorKind::Sdg, alloc::format!("grid: {}", e.msg)))?;
         Ok(a)
     }
 }
@@ -148,7 +169,10 @@ pub fn generate(which: u32, grid: &Grid) -> Result<(Vec<f64>, Affine4)> {
         .ok_or_else(|| Error::new(ErrorKind::Sdg, "-sz: too many samples"))?;
     let mut out = Vec::new();
     out.try_reserve_exact(n).map_err(|_| {
-        Error::new(ErrorKind::Sdg, alloc::format!("-sz: {n} samples do not fit in memory"))
+        Error::new(
+            ErrorKind::Sdg,
+            alloc::format!("-sz: {n} samples do not fit in memory"),
+        )
     })?;
     for k in 0..s2 {
         for j in 0..s1 {

@@ -96,7 +96,10 @@ impl Txf {
     pub fn new(space: TxfSpace, rows: &[&[f64]]) -> Result<Txf> {
         let nc = space.channels() + 1;
         if rows.is_empty() {
-            return Err(Error::new(ErrorKind::Txf, "transfer function has no control points"));
+            return Err(Error::new(
+                ErrorKind::Txf,
+                "transfer function has no control points",
+            ));
         }
         let mut xs = Vec::with_capacity(rows.len());
         let mut vals = Vec::with_capacity(rows.len());
@@ -240,10 +243,16 @@ impl Lut {
         }
         if let Some(c) = ctxf {
             if c.space == TxfSpace::Alpha {
-                return Err(Error::new(ErrorKind::Txf, "colour txf must be in space rgb or hsv"));
+                return Err(Error::new(
+                    ErrorKind::Txf,
+                    "colour txf must be in space rgb or hsv",
+                ));
             }
         } else if crs {
-            return Err(Error::new(ErrorKind::Txf, "can't rescale colour without a colour txf"));
+            return Err(Error::new(
+                ErrorKind::Txf,
+                "can't rescale colour without a colour txf",
+            ));
         }
         if let Some(a) = atxf {
             if a.space != TxfSpace::Alpha {
@@ -253,7 +262,10 @@ impl Lut {
                 ));
             }
         } else if ars {
-            return Err(Error::new(ErrorKind::Txf, "can't rescale opacity without an opacity txf"));
+            return Err(Error::new(
+                ErrorKind::Txf,
+                "can't rescale opacity without an opacity txf",
+            ));
         }
         let range = |t: Option<&Txf>, rs: bool| match (t, rs) {
             (Some(t), true) => t.domain(),
@@ -411,8 +423,12 @@ mod tests {
 
     #[test]
     fn levoy_examples() {
-        let l = Levoy::new(alloc::vec![[0.6, 0.035, 0.1], [0.8, 0.035, 0.2], [0.95, 0.035, 1.3]])
-            .unwrap();
+        let l = Levoy::new(alloc::vec![
+            [0.6, 0.035, 0.1],
+            [0.8, 0.035, 0.2],
+            [0.95, 0.035, 1.3]
+        ])
+        .unwrap();
         let cases = [
             (0.6, 1.0, 0.1),
             (0.62, 1.0, 0.0428571),

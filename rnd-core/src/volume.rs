@@ -25,7 +25,9 @@ impl<'a, V: Voxel> Volume<'a, V> {
                 alloc::format!("volume has an empty axis (sizes {sizes:?})"),
             ));
         }
-        let n = sizes[0].checked_mul(sizes[1]).and_then(|x| x.checked_mul(sizes[2]));
+        let n = sizes[0]
+            .checked_mul(sizes[1])
+            .and_then(|x| x.checked_mul(sizes[2]));
         if n != Some(data.len()) {
             return Err(Error::new(
                 ErrorKind::Volume,
@@ -40,12 +42,23 @@ impl<'a, V: Voxel> Volume<'a, V> {
             ));
         }
         if !itow.is_affine() {
-            return Err(Error::new(ErrorKind::Volume, "ItoW bottom row is not 0 0 0 1"));
+            return Err(Error::new(
+                ErrorKind::Volume,
+                "ItoW bottom row is not 0 0 0 1",
+            ));
         }
         let wtoi = itow.affine_inverse().map_err(|e| {
-            Error::new(ErrorKind::Volume, alloc::format!("index-to-world matrix: {}", e.msg))
+            Error::new(
+                ErrorKind::Volume,
+                alloc::format!("index-to-world matrix: {}", e.msg),
+            )
         })?;
-        Ok(Volume { data, sizes, itow, wtoi })
+        Ok(Volume {
+            data,
+            sizes,
+            itow,
+            wtoi,
+        })
     }
 
     /// The samples.

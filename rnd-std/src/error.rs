@@ -17,15 +17,27 @@ pub struct Error {
 impl Error {
     /// A message without a file.
     pub fn msg(msg: impl Into<String>) -> Self {
-        Error { path: None, msg: msg.into(), source: None }
+        Error {
+            path: None,
+            msg: msg.into(),
+            source: None,
+        }
     }
     /// A message about `path`.
     pub fn at(path: &Path, msg: impl Into<String>) -> Self {
-        Error { path: Some(path.to_path_buf()), msg: msg.into(), source: None }
+        Error {
+            path: Some(path.to_path_buf()),
+            msg: msg.into(),
+            source: None,
+        }
     }
     /// An IO error while doing `what` with `path`.
     pub fn io(path: &Path, what: &str, e: std::io::Error) -> Self {
-        Error { path: Some(path.to_path_buf()), msg: format!("{what}: {e}"), source: Some(e) }
+        Error {
+            path: Some(path.to_path_buf()),
+            msg: format!("{what}: {e}"),
+            source: Some(e),
+        }
     }
     /// Sets the path if none is set.
     pub fn with_path(mut self, path: &Path) -> Self {

@@ -18,7 +18,12 @@ fn read_2d(path: &Path) -> Result<(Nrrd, usize, usize)> {
     let (c, r) = match n.sizes() {
         [c, r] => (*c, *r),
         [c] => (1, *c),
-        s => return Err(Error::at(path, format!("need a 2-D array, got {}-D", s.len()))),
+        s => {
+            return Err(Error::at(
+                path,
+                format!("need a 2-D array, got {}-D", s.len()),
+            ))
+        }
     };
     Ok((n, c, r))
 }
@@ -27,7 +32,10 @@ fn space_of(path: &Path, n: &Nrrd) -> Result<Option<TxfSpace>> {
     let s = n.header.key("space").or_else(|| n.header.key("range"));
     match s {
         None => Ok(None),
-        Some(s) => s.parse::<TxfSpace>().map(Some).map_err(|e| Error::at(path, e.msg)),
+        Some(s) => s
+            .parse::<TxfSpace>()
+            .map(Some)
+            .map_err(|e| Error::at(path, e.msg)),
     }
 }
 
@@ -40,7 +48,10 @@ fn rows(n: &Nrrd, c: usize) -> Vec<Vec<f64>> {
 pub fn load_txf(path: &Path) -> Result<Txf> {
     let (n, c, _) = read_2d(path)?;
     let space = space_of(path, &n)?.ok_or_else(|| {
-        Error::at(path, "no \"#space:=\" (or \"#range:=\") line saying rgb, hsv or alpha")
+        Error::at(
+            path,
+            "no \"#space:=\" (or \"#range:=\") line saying rgb, hsv or alpha",
+        )
     })?;
     let need = space.channels() + 1;
     if c != need {
@@ -60,7 +71,10 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
     let n = nrrd::read(path)?;
     let s = n.sizes();
     if s.len() != 2 {
-        return Err(Error::at(path, format!("LUT must be 2-D (4 x N), got {}-D", s.len())));
+        return Err(Error::at(
+            path,
+            format!("LUT must be 2-D (4 x N), got {}-D", s.len()),
+        ));
     }
     if s[0] != 4 {
         return Err(Error::at(
@@ -71,10 +85,18 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
     let h = &n.header;
     let (lo, hi) = match (&h.axis_mins, &h.axis_maxs) {
         (Some(a), Some(b)) => (a[1], b[1]),
-        _ => return Err(Error::at(path, "LUT axis 1 has no axis min/max (the value range)")),
+        _ => {
+            return Err(Error::at(
+                path,
+                "LUT axis 1 has no axis min/max (the value range)",
+            ))
+        }
     };
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(Error::at(path, format!("LUT axis 1 range [{lo}, {hi}] needs finite min < max")));
+        return Err(Error::at(
+            path,
+            format!("LUT axis 1 range [{lo}, {hi}] needs finite min < max"),
+        ));
     }
     if nrrd::centering(h, 1) == Centering::Node {
         return Err(Error::at(path, "LUT axis 1 must be cell-centred, not node"));
@@ -83,7 +105,10 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
     if v.iter().any(|x| !x.is_finite()) {
         return Err(Error::at(path, "LUT has non-finite entries"));
     }
-    let rgba = v.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    let rgba = v
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect();
     Lut::new(lo, hi, rgba).map_err(|e| Error::at(path, e.msg))
 }
 
@@ -91,9 +116,15 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
 pub fn load_levoy(path: &Path) -> Result<Levoy> {
     let (n, c, _) = read_2d(path)?;
     if c != 3 {
-        return Err(Error::at(path, format!("need 3 columns (isovalue thickness opacity), got {c}")));
+        return Err(Error::at(
+            path,
+            format!("need 3 columns (isovalue thickness opacity), got {c}"),
+        ));
     }
-    let items = rows(&n, 3).into_iter().map(|r| [r[0] as f32, r[1] as f32, r[2] as f32]).collect();
+    let items = rows(&n, 3)
+        .into_iter()
+        .map(|r| [r[0] as f32, r[1] as f32, r[2] as f32])
+        .collect();
     Levoy::new(items).map_err(|e| Error::at(path, e.msg))
 }
 
@@ -103,7 +134,10 @@ pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
     let (n, c, _) = read_2d(path)?;
     let space = space_of(path, &n)?.unwrap_or(TxfSpace::Rgb);
     if space == TxfSpace::Alpha {
-        return Err(Error::at(path, "light colours must be in space rgb or hsv, not alpha"));
+        return Err(Error::at(
+            path,
+            "light colours must be in space rgb or hsv, not alpha",
+        ));
     }
     if c != 7 {
         return Err(Error::at(
@@ -116,7 +150,11 @@ pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
         .enumerate()
         .map(|(i, r)| {
             let col = [r[0], r[1], r[2]];
-            let rgb = if space == TxfSpace::Hsv { hsv_to_rgb(col) } else { col };
+            let rgb = if space == TxfSpace::Hsv {
+                hsv_to_rgb(col)
+            } else {
+                col
+            };
             Light::new(
                 [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32],
                 [r[3], r[4], r[5]],
@@ -152,7 +190,9 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         let stdout = std::io::stdout();
         let mut lock = std::io::BufWriter::new(stdout.lock());
         fill(&mut lock)?;
-        return lock.flush().map_err(|e| Error::io(path, "can't write to stdout", e));
+        return lock
+            .flush()
+            .map_err(|e| Error::io(path, "can't write to stdout", e));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -171,11 +211,13 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         v.push(tmp.clone());
     }
     let result = (|| {
-        let f = std::fs::File::create(&tmp)
-            .map_err(|e| Error::io(path, "can't create output", e))?;
+        let f =
+            std::fs::File::create(&tmp).map_err(|e| Error::io(path, "can't create output", e))?;
         let mut w = std::io::BufWriter::new(f);
         fill(&mut w).map_err(|e| e.with_path(path))?;
-        let f = w.into_inner().map_err(|e| Error::io(path, "can't write", e.into_error()))?;
+        let f = w
+            .into_inner()
+            .map_err(|e| Error::io(path, "can't write", e.into_error()))?;
         f.sync_all().ok();
         drop(f);
         std::fs::rename(&tmp, path).map_err(|e| Error::io(path, "can't move output into place", e))

@@ -20,7 +20,8 @@ pub struct Image {
 
 /// Whether `path` asks for PNG output.
 pub fn is_png(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
 }
 
 /// `floor(256·(v − min)/(max − min))` clamped to 0..=255 (Teem's quantization).
@@ -53,12 +54,21 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
         }
         3 => {
             let (lo, hi) = range.unwrap_or_else(|| finite_range(img.data.iter().copied()));
-            (img.data.iter().map(|&v| quantize(v as f64, lo, hi)).collect(), image::ColorType::Rgb8)
+            (
+                img.data
+                    .iter()
+                    .map(|&v| quantize(v as f64, lo, hi))
+                    .collect(),
+                image::ColorType::Rgb8,
+            )
         }
         _ => {
             let first = img.data.iter().step_by(c).copied();
             let (lo, hi) = range.unwrap_or_else(|| finite_range(first.clone()));
-            (first.map(|v| quantize(v as f64, lo, hi)).collect(), image::ColorType::L8)
+            (
+                first.map(|v| quantize(v as f64, lo, hi)).collect(),
+                image::ColorType::L8,
+            )
         }
     };
     encode_png(&buf, w, h, color)
@@ -76,7 +86,10 @@ pub fn encode_png(buf: &[u8], w: usize, h: usize, color: image::ColorType) -> Re
 /// Writes 8-bit RGB pixels (`w` × `h`, top row first) as a PNG file, atomically.
 pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> {
     let bytes = encode_png(buf, w, h, image::ColorType::Rgb8)?;
-    write_atomic(path, |f| f.write_all(&bytes).map_err(|e| Error::msg(format!("write failed: {e}"))))
+    write_atomic(path, |f| {
+        f.write_all(&bytes)
+            .map_err(|e| Error::msg(format!("write failed: {e}")))
+    })
 }
 
 fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
@@ -96,14 +109,23 @@ fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
 
 /// Writes `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
 /// sizes C W H, `content` as given). `-` writes NRRD to stdout.
-pub fn write_image(img: &Image, path: &Path, content: &str, range: Option<(f64, f64)>) -> Result<()> {
+pub fn write_image(
+    img: &Image,
+    path: &Path,
+    content: &str,
+    range: Option<(f64, f64)>,
+) -> Result<()> {
     if is_png(path) {
         let bytes = png_bytes(img, range)?;
         return write_atomic(path, |w| {
-            w.write_all(&bytes).map_err(|e| Error::msg(format!("write failed: {e}")))
+            w.write_all(&bytes)
+                .map_err(|e| Error::msg(format!("write failed: {e}")))
         });
     }
-    let mut n = Nrrd::new(vec![img.channels, img.size[0], img.size[1]], Data::F32(img.data.clone()))?;
+    let mut n = Nrrd::new(
+        vec![img.channels, img.size[0], img.size[1]],
+        Data::F32(img.data.clone()),
+    )?;
     n.header.content = Some(content.to_string());
     nrrd::write(&n, path, WriteOptions::default())
 }

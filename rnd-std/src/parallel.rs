@@ -18,7 +18,9 @@ const BAND: usize = 4;
 
 /// Number of worker threads for `-nt` value `nt` (0 and 1 = the calling thread).
 pub fn default_threads() -> usize {
-    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
 }
 
 /// Renders the whole image with `threads` workers (≤ 1: on the calling thread); draws a
@@ -45,7 +47,8 @@ pub fn render(
             let mut out = vec![0.0f32; w * h * ch];
             let t0 = Instant::now();
             let clock = || t0.elapsed().as_secs_f64() * 1000.0;
-            let clock_ref: Option<&(dyn Fn() -> f64 + Sync)> = if spec.params.time { Some(&clock) } else { None };
+            let clock_ref: Option<&(dyn Fn() -> f64 + Sync)> =
+                if spec.params.time { Some(&clock) } else { None };
             let show = self.progress && std::io::stderr().is_terminal();
             let done = AtomicUsize::new(0);
             let nbands = h.div_ceil(BAND);
@@ -62,7 +65,12 @@ pub fn render(
                 for (b, chunk) in bands {
                     let r0 = (b * BAND) as u32;
                     let r1 = ((b + 1) * BAND).min(h) as u32;
-                    spec.render_rows(&mut convo, r0..r1, chunk, clock_ref.map(|c| c as &dyn Fn() -> f64));
+                    spec.render_rows(
+                        &mut convo,
+                        r0..r1,
+                        chunk,
+                        clock_ref.map(|c| c as &dyn Fn() -> f64),
+                    );
                     report(b + 1);
                 }
             } else {
@@ -76,7 +84,12 @@ pub fn render(
                                 let Some((b, chunk)) = next else { break };
                                 let r0 = (b * BAND) as u32;
                                 let r1 = ((b + 1) * BAND).min(h) as u32;
-                                spec.render_rows(&mut convo, r0..r1, chunk, clock_ref.map(|c| c as &dyn Fn() -> f64));
+                                spec.render_rows(
+                                    &mut convo,
+                                    r0..r1,
+                                    chunk,
+                                    clock_ref.map(|c| c as &dyn Fn() -> f64),
+                                );
                                 report(done.fetch_add(1, Ordering::Relaxed) + 1);
                             }
                         });
@@ -89,5 +102,13 @@ pub fn render(
             out
         }
     }
-    dispatch(vol, kernel, Task { spec, threads, progress })
+    dispatch(
+        vol,
+        kernel,
+        Task {
+            spec,
+            threads,
+            progress,
+        },
+    )
 }

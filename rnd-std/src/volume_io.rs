@@ -91,7 +91,11 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         axis_off = 1;
     }
     if sizes.len() != 3 {
-        let what = if sizes.len() == 4 { " (vector or multi-channel data can't be rendered)" } else { "" };
+        let what = if sizes.len() == 4 {
+            " (vector or multi-channel data can't be rendered)"
+        } else {
+            ""
+        };
         return Err(Error::msg(format!(
             "volume must be 3-D, this is {}-D (sizes {:?}){what}",
             h.sizes.len(),
@@ -106,7 +110,9 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
     let itow = if let Some(dirs) = &h.space_directions {
         let sd = sd.unwrap_or(3);
         if sd != 3 {
-            return Err(Error::msg(format!("space has dimension {sd}; need a 3-D world space")));
+            return Err(Error::msg(format!(
+                "space has dimension {sd}; need a 3-D world space"
+            )));
         }
         let d: Vec<[f64; 3]> = (0..3)
             .map(|a| {
@@ -125,13 +131,19 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         };
         match h.space.as_deref() {
             Some("left-posterior-superior") => {}
-            Some(s) => notes.push(format!("world space is \"{s}\" (not LPS); its coordinates are used as is")),
+            Some(s) => notes.push(format!(
+                "world space is \"{s}\" (not LPS); its coordinates are used as is"
+            )),
             None => notes.push("no named space (\"space dimension\" only)".to_string()),
         }
         Affine4::from_columns(d[0], d[1], d[2], o)
     } else {
         let sp: [f64; 3] = core::array::from_fn(|a| {
-            h.spacings.as_ref().map(|s| s[a + axis_off]).filter(|x| x.is_finite()).unwrap_or(f64::NAN)
+            h.spacings
+                .as_ref()
+                .map(|s| s[a + axis_off])
+                .filter(|x| x.is_finite())
+                .unwrap_or(f64::NAN)
         });
         let mut spc = [1.0; 3];
         if sp.iter().all(|x| x.is_finite()) {
@@ -140,7 +152,7 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         } else {
             notes.push("no spacing recorded: world space = index space (spacing 1)".to_string());
         }
-        if spc.iter().any(|&s| s == 0.0) {
+        if spc.contains(&0.0) {
             return Err(Error::msg("spacings: a spacing is 0"));
         }
         let mut o = [0.0; 3];
@@ -148,7 +160,11 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
             for a in 0..3 {
                 let m = mins[a + axis_off];
                 if m.is_finite() {
-                    o[a] = if cent[a] == Centering::Cell { m + spc[a] / 2.0 } else { m };
+                    o[a] = if cent[a] == Centering::Cell {
+                        m + spc[a] / 2.0
+                    } else {
+                        m
+                    };
                 }
             }
             notes.push("origin from \"axis mins\"".to_string());
@@ -156,26 +172,40 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         Affine4::from_columns([spc[0], 0., 0.], [0., spc[1], 0.], [0., 0., spc[2]], o)
     };
     if !itow.is_finite() {
-        return Err(Error::msg("space directions/origin have non-finite numbers"));
+        return Err(Error::msg(
+            "space directions/origin have non-finite numbers",
+        ));
     }
     if itow.affine_inverse().is_err() {
         return Err(Error::msg(
             "space directions are singular (axes are parallel or zero): can't invert index-to-world",
         ));
     }
-    if cent.iter().any(|&c| c == Centering::Node) {
-        notes.push("node-centred axes: samples are taken at the nodes (same index-to-world)".to_string());
+    if cent.contains(&Centering::Node) {
+        notes.push(
+            "node-centred axes: samples are taken at the nodes (same index-to-world)".to_string(),
+        );
     }
     let data = match n.data {
         Data::I16(v) => VolumeData::I16(v),
         Data::F32(v) => VolumeData::F32(v),
         other => {
-            notes.push(format!("{} samples converted to float", other.scalar_type()));
+            notes.push(format!(
+                "{} samples converted to float",
+                other.scalar_type()
+            ));
             VolumeData::F32(other.to_f32())
         }
     };
     let space = h.space.clone();
-    let vb = VolumeBuf { data, sizes, itow, file_type, space, notes };
+    let vb = VolumeBuf {
+        data,
+        sizes,
+        itow,
+        file_type,
+        space,
+        notes,
+    };
     // Validate once so view() can't fail.
     match &vb.data {
         VolumeData::F32(v) => {

@@ -10,7 +10,10 @@ use std::process::Command;
 
 /// The workspace root.
 pub fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace root")
+        .to_path_buf()
 }
 
 fn required(var: &str) -> bool {
@@ -32,8 +35,8 @@ pub fn shared(test: &str) -> Option<PathBuf> {
 
 /// Whether the Teem program `prog` (e.g. `teem-unu`) runs; prints "skipped" when not.
 pub fn teem(test: &str, prog: &str) -> bool {
-    let ok = Command::new(prog).arg("--version").output().is_ok()
-        || Command::new(prog).output().is_ok();
+    let ok =
+        Command::new(prog).arg("--version").output().is_ok() || Command::new(prog).output().is_ok();
     if ok {
         return true;
     }
@@ -54,7 +57,10 @@ pub fn tmpdir(name: &str) -> PathBuf {
 
 /// Runs `prog args...`, panicking with its stderr when it fails; returns stdout.
 pub fn run(prog: &str, args: &[&str]) -> String {
-    let out = Command::new(prog).args(args).output().unwrap_or_else(|e| panic!("{prog}: {e}"));
+    let out = Command::new(prog)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{prog}: {e}"));
     assert!(
         out.status.success(),
         "{prog} {args:?} failed: {}",
@@ -75,7 +81,11 @@ pub fn naive_convo<V: rnd_core::voxel::Voxel>(
     let sizes = vol.sizes();
     let mut lo = [0i64; 3];
     for a in 0..3 {
-        let n = if s % 2 == 0 { x[a].floor() } else { (x[a] + 0.5).floor() } as i64;
+        let n = if s % 2 == 0 {
+            x[a].floor()
+        } else {
+            (x[a] + 0.5).floor()
+        } as i64;
         lo[a] = n + k.lo() as i64;
         if lo[a] < 0 || lo[a] + s > sizes[a] as i64 {
             return (false, 0.0, [0.0; 3]);

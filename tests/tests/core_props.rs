@@ -12,9 +12,11 @@ use rnd_core::voxel::Voxel;
 use rnd_tests::naive_convo;
 
 fn well_conditioned() -> impl Strategy<Value = Affine4> {
-    (prop::array::uniform9(-2.0f64..2.0), prop::array::uniform3(-100.0f64..100.0)).prop_filter_map(
-        "well conditioned",
-        |(m, t)| {
+    (
+        prop::array::uniform9(-2.0f64..2.0),
+        prop::array::uniform3(-100.0f64..100.0),
+    )
+        .prop_filter_map("well conditioned", |(m, t)| {
             // Add a multiple of the identity to keep it far from singular.
             let a = Affine4::from_columns(
                 [m[0] + 3.0, m[1], m[2]],
@@ -23,8 +25,7 @@ fn well_conditioned() -> impl Strategy<Value = Affine4> {
                 t,
             );
             (a.det3().abs() > 1.0).then_some(a)
-        },
-    )
+        })
 }
 
 proptest! {
@@ -101,7 +102,9 @@ impl ConvoTask for At {
 /// magnitude and 1/(smallest spacing) (index-space derivatives are divided by spacing).
 fn grad_tol(grid: &Grid, vals: &[f64], k: KernelName) -> f32 {
     let maxabs = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let hmin = (0..3).map(|a| grid.lengths[a] / grid.sizes[a] as f64).fold(f64::INFINITY, f64::min);
+    let hmin = (0..3)
+        .map(|a| grid.lengths[a] / grid.sizes[a] as f64)
+        .fold(f64::INFINITY, f64::min);
     (16.0 * f32::EPSILON as f64 * k.support() as f64 * (1.0 + maxabs) / hmin) as f32
 }
 
@@ -113,7 +116,13 @@ fn grid_strategy() -> impl Strategy<Value = Grid> {
         prop::array::uniform3(-1.0f64..1.0),
         prop::array::uniform3(-1.0f64..1.0),
     )
-        .prop_map(|(sizes, lengths, shear, rot, centre)| Grid { sizes, lengths, shear, rot, centre })
+        .prop_map(|(sizes, lengths, shear, rot, centre)| Grid {
+            sizes,
+            lengths,
+            shear,
+            rot,
+            centre,
+        })
 }
 
 proptest! {
@@ -257,7 +266,10 @@ fn names_round_trip() {
     use rnd_core::probe::Probe;
     for k in KernelName::ALL {
         assert_eq!(k.to_string().parse::<KernelName>().unwrap(), k);
-        assert_eq!(k.to_string().to_uppercase().parse::<KernelName>().unwrap(), k);
+        assert_eq!(
+            k.to_string().to_uppercase().parse::<KernelName>().unwrap(),
+            k
+        );
     }
     for p in Probe::ALL {
         assert_eq!(p.to_string().parse::<Probe>().unwrap(), p);

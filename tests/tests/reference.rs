@@ -58,14 +58,17 @@ impl ConvoTask for NearestBoundary<'_, '_> {
             }
         };
         let mut out = [0.0f32; 4];
-        self.spec.cast(&mut convo, self.px[0], self.px[1], &mut out, Some(&mut cb));
+        self.spec
+            .cast(&mut convo, self.px[0], self.px[1], &mut out, Some(&mut cb));
         best
     }
 }
 
 #[test]
 fn cube_rgb_matches_reference() {
-    let Some(sh) = rnd_tests::shared("cube_rgb_matches_reference") else { return };
+    let Some(sh) = rnd_tests::shared("cube_rgb_matches_reference") else {
+        return;
+    };
     let d = sh.join("rendr-data");
     let vol = volume_io::load_volume(&d.join("cube.nrrd")).unwrap();
     let lut = files::load_lut(&d.join("lut.nrrd")).unwrap();
@@ -111,7 +114,9 @@ fn cube_rgb_matches_reference() {
     let mut worst_ok = 0.0f32;
     let mut explained = 0;
     for px in 0..320 * 280 {
-        let d = (0..4).map(|c| (img[4 * px + c] - want[4 * px + c]).abs()).fold(0.0, f32::max);
+        let d = (0..4)
+            .map(|c| (img[4 * px + c] - want[4 * px + c]).abs())
+            .fold(0.0, f32::max);
         if d <= 1e-5 {
             worst_ok = worst_ok.max(d);
             continue;
@@ -120,7 +125,11 @@ fn cube_rgb_matches_reference() {
         let dist = dispatch(
             vol.view(),
             KernelName::Bspln3,
-            NearestBoundary { spec: &spec, lut: &lut, px: [h, v] },
+            NearestBoundary {
+                spec: &spec,
+                lut: &lut,
+                px: [h, v],
+            },
         );
         assert!(
             dist < 2e-3,
@@ -129,14 +138,20 @@ fn cube_rgb_matches_reference() {
         assert!(d < 0.01, "pixel ({h},{v}) differs by {d}");
         explained += 1;
     }
-    assert!(explained < 100, "{explained} pixels differ by more than 1e-5");
+    assert!(
+        explained < 100,
+        "{explained} pixels differ by more than 1e-5"
+    );
     eprintln!(
         "cube-rgb: max error {worst_ok} on {} pixels; {explained} pixels differ more, each at a LUT bin flip",
         320 * 280 - explained
     );
     // Coverage as the reference: alpha > 0 on 49,862 pixels.
     let covered = (0..320 * 280).filter(|p| img[4 * p + 3] > 0.0).count();
-    assert!((covered as i64 - 49_862).abs() < 50, "{covered} covered pixels");
+    assert!(
+        (covered as i64 - 49_862).abs() < 50,
+        "{covered} covered pixels"
+    );
     // Every alpha = 0 pixel is (0,0,0,0).
     for p in 0..320 * 280 {
         if img[4 * p + 3] == 0.0 {
@@ -147,7 +162,9 @@ fn cube_rgb_matches_reference() {
 
 #[test]
 fn lgen_reproduces_reference_lut() {
-    let Some(sh) = rnd_tests::shared("lgen_reproduces_reference_lut") else { return };
+    let Some(sh) = rnd_tests::shared("lgen_reproduces_reference_lut") else {
+        return;
+    };
     let d = sh.join("rendr-data");
     let atxf = files::load_txf(&d.join("cube-atxf1.txt")).unwrap();
     let lut = Lut::generate(None, Some(&atxf), false, false, 512, 0.0, 1.0).unwrap();
@@ -163,10 +180,14 @@ fn lgen_reproduces_reference_lut() {
 
 #[test]
 fn cube_volume_geometry_matches_spec() {
-    let Some(sh) = rnd_tests::shared("cube_volume_geometry_matches_spec") else { return };
+    let Some(sh) = rnd_tests::shared("cube_volume_geometry_matches_spec") else {
+        return;
+    };
     let v = volume_io::load_volume(&sh.join("rendr-data/cube.nrrd")).unwrap();
     assert_eq!(v.sizes, [50, 70, 90]);
-    let sp: Vec<f64> = (0..3).map(|c| rnd_core::math::v3::len(v.itow.column3(c))).collect();
+    let sp: Vec<f64> = (0..3)
+        .map(|c| rnd_core::math::v3::len(v.itow.column3(c)))
+        .collect();
     for (a, b) in sp.iter().zip([0.08, 0.0571428575, 0.0444444455]) {
         assert!((a - b).abs() < 1e-8, "{sp:?}");
     }
@@ -185,7 +206,9 @@ fn cube_volume_geometry_matches_spec() {
 
 #[test]
 fn real_volumes_load() {
-    let Some(sh) = rnd_tests::shared("real_volumes_load") else { return };
+    let Some(sh) = rnd_tests::shared("real_volumes_load") else {
+        return;
+    };
     let ct = volume_io::load_volume(&sh.join("volumes/imageio-stent-ct.nrrd")).unwrap();
     assert_eq!(ct.sizes, [128, 128, 256]);
     assert_eq!(ct.type_name(), "short");
@@ -193,7 +216,10 @@ fn real_volumes_load() {
     assert!(lo >= 0.0 && hi <= 2000.0 && hi > lo);
     let head = volume_io::load_volume(&sh.join("volumes/itk-t1-head.nrrd")).unwrap();
     assert_eq!(head.sizes, [128, 128, 62]);
-    assert!(head.notes.iter().any(|n| n.contains("right-anterior-superior")));
+    assert!(head
+        .notes
+        .iter()
+        .any(|n| n.contains("right-anterior-superior")));
     let water = volume_io::load_volume(&sh.join("volumes/nachr-m2-water-density.nrrd")).unwrap();
     assert_eq!(water.sizes, [46, 46, 78]);
     assert_eq!(water.type_name(), "real");

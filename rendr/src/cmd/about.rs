@@ -12,7 +12,10 @@ pub static SPEC: CmdSpec = CmdSpec {
 };
 
 pub fn run(_a: &Args) -> anyhow::Result<()> {
-    let verbose = std::env::var("RND_VERBOSE").ok().and_then(|v| v.parse::<i32>().ok()).unwrap_or(0);
+    let verbose = std::env::var("RND_VERBOSE")
+        .ok()
+        .and_then(|v| v.parse::<i32>().ok())
+        .unwrap_or(0);
     println!(
         "rendr {}: a direct volume renderer.\n\
          \n\
@@ -30,7 +33,11 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          and blending in f32 (\"real == float\", like the reference).\n\
          Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.",
         env!("CARGO_PKG_VERSION"),
-        if cfg!(debug_assertions) { "debug" } else { "release" },
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "release"
+        },
         usize::BITS,
         std::env::consts::ARCH,
         if cfg!(debug_assertions) { "on" } else { "off" },

@@ -21,9 +21,23 @@ pub static SPEC: CmdSpec = CmdSpec {
     opts: &[
         req(&["i", "-input"], 1, "vol", "input volume"),
         req(&["w"], 3, "x y z", "world-space position"),
-        flag(&["wtoi"], "only print the index-space position of the point"),
-        req(&["k", "-kern"], 1, "kernel", "reconstruction kernel (see \"rendr klist\")"),
-        def(&["g"], 1, "false", "bool", "also compute the world-space gradient"),
+        flag(
+            &["wtoi"],
+            "only print the index-space position of the point",
+        ),
+        req(
+            &["k", "-kern"],
+            1,
+            "kernel",
+            "reconstruction kernel (see \"rendr klist\")",
+        ),
+        def(
+            &["g"],
+            1,
+            "false",
+            "bool",
+            "also compute the world-space gradient",
+        ),
     ],
     pos: &[],
 };
@@ -69,7 +83,11 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    println!("{} =rndConvoEval(({wl}),{file}*{})", g9(s.value as f64), k.title());
+    println!(
+        "{} =rndConvoEval(({wl}),{file}*{})",
+        g9(s.value as f64),
+        k.title()
+    );
     if grad {
         let g: Vec<f64> = s.grad_w.iter().map(|&x| x as f64).collect();
         println!("{} =gradient", list9(&g));

@@ -32,35 +32,142 @@ pub static SPEC: CmdSpec = CmdSpec {
     response_files: true,
     opts: &[
         req(&["i", "-input"], 1, "vol", "input volume"),
-        req(&["k", "-kern"], 1, "kernel", "reconstruction kernel (see \"rendr klist\")"),
+        req(
+            &["k", "-kern"],
+            1,
+            "kernel",
+            "reconstruction kernel (see \"rendr klist\")",
+        ),
         req(&["fr"], 3, "x y z", "look-from point"),
         req(&["at"], 3, "x y z", "look-at point"),
         req(&["up"], 3, "x y z", "up direction"),
-        req(&["nc"], 1, "dist", "near clipping plane, relative to look-at"),
-        req(&["fc"], 1, "dist", "far clipping plane, relative to look-at"),
+        req(
+            &["nc"],
+            1,
+            "dist",
+            "near clipping plane, relative to look-at",
+        ),
+        req(
+            &["fc"],
+            1,
+            "dist",
+            "far clipping plane, relative to look-at",
+        ),
         req(&["fov"], 1, "angle", "vertical field of view, in degrees"),
         req(&["sz"], 2, "horz vert", "image size in pixels"),
         flag(&["ortho"], "orthographic instead of perspective projection"),
-        def(&["s", "-planesep"], 1, "0.1", "sep", "distance between sampling planes (0: one sample on the near plane)"),
-        flag(&["s1s", "-sampleonce"], "take one sample on the near plane only"),
-        def(&["p", "-probe"], 1, "val", "probe", "what to measure at each sample"),
-        def(&["b", "-blend"], 1, "max", "blend", "how to combine the samples of a ray"),
-        def(&["ov", "-outsideval"], 1, "0", "val", "value for rays with nothing to blend (may be nan)"),
-        opt(&["nt"], 1, "threads", "number of threads (0 or 1: no extra threads; default: all cores)"),
-        def(&["us"], 1, "1", "unitstep", "unit step length for opacity correction (world units)"),
-        def(&["a1"], 1, "1", "alphanear1", "early ray termination opacity, in (0,1]; 1 = off"),
-        opt(&["lut"], 1, "lut", "lookup table from \"rendr lgen\" (needed for rgba, rgbalit)"),
-        opt(&["lev"], 1, "levoy", "Levoy iso-contour opacities (v r a per line)"),
+        def(
+            &["s", "-planesep"],
+            1,
+            "0.1",
+            "sep",
+            "distance between sampling planes (0: one sample on the near plane)",
+        ),
+        flag(
+            &["s1s", "-sampleonce"],
+            "take one sample on the near plane only",
+        ),
+        def(
+            &["p", "-probe"],
+            1,
+            "val",
+            "probe",
+            "what to measure at each sample",
+        ),
+        def(
+            &["b", "-blend"],
+            1,
+            "max",
+            "blend",
+            "how to combine the samples of a ray",
+        ),
+        def(
+            &["ov", "-outsideval"],
+            1,
+            "0",
+            "val",
+            "value for rays with nothing to blend (may be nan)",
+        ),
+        opt(
+            &["nt"],
+            1,
+            "threads",
+            "number of threads (0 or 1: no extra threads; default: all cores)",
+        ),
+        def(
+            &["us"],
+            1,
+            "1",
+            "unitstep",
+            "unit step length for opacity correction (world units)",
+        ),
+        def(
+            &["a1"],
+            1,
+            "1",
+            "alphanear1",
+            "early ray termination opacity, in (0,1]; 1 = off",
+        ),
+        opt(
+            &["lut"],
+            1,
+            "lut",
+            "lookup table from \"rendr lgen\" (needed for rgba, rgbalit)",
+        ),
+        opt(
+            &["lev"],
+            1,
+            "levoy",
+            "Levoy iso-contour opacities (v r a per line)",
+        ),
         opt(&["lit"], 1, "lights", "light file (needed for rgbalit)"),
-        def(&["ph"], 4, "0.2 0.8 0.1 150", "ka kd ks p", "Blinn-Phong ambient, diffuse, specular, exponent"),
-        def(&["dcn"], 3, "1 1 1", "r g b", "depth-cue colour at the near plane"),
-        def(&["dcf"], 3, "1 1 1", "r g b", "depth-cue colour at the far plane"),
+        def(
+            &["ph"],
+            4,
+            "0.2 0.8 0.1 150",
+            "ka kd ks p",
+            "Blinn-Phong ambient, diffuse, specular, exponent",
+        ),
+        def(
+            &["dcn"],
+            3,
+            "1 1 1",
+            "r g b",
+            "depth-cue colour at the near plane",
+        ),
+        def(
+            &["dcf"],
+            3,
+            "1 1 1",
+            "r g b",
+            "depth-cue colour at the far plane",
+        ),
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
-        flag(&["petc"], "press Enter to continue (wait before rendering; for profiling)"),
-        def(&["db"], 2, "-1 -1", "h v", "trace only the ray through pixel (h, v), no image"),
-        def(&["sp"], 1, "true", "bool", "show progress (only when stderr is a terminal)"),
+        flag(
+            &["petc"],
+            "press Enter to continue (wait before rendering; for profiling)",
+        ),
+        def(
+            &["db"],
+            2,
+            "-1 -1",
+            "h v",
+            "trace only the ray through pixel (h, v), no image",
+        ),
+        def(
+            &["sp"],
+            1,
+            "true",
+            "bool",
+            "show progress (only when stderr is a terminal)",
+        ),
         opt(&["q"], 2, "min max", "quantization range for PNG output"),
-        opt(&["o"], 1, "fout", "output image (.nrrd, or .png; - = NRRD on stdout)"),
+        opt(
+            &["o"],
+            1,
+            "fout",
+            "output image (.nrrd, or .png; - = NRRD on stdout)",
+        ),
     ],
     pos: &[],
 };
@@ -77,14 +184,27 @@ impl ConvoTask for Trace<'_, '_> {
         let [hi, vi] = self.px;
         let g = spec.ray_geom(hi, vi);
         println!("pixel ({hi}, {vi}):");
-        println!("  view-space ray initial pos {} step {}", list6(&g.start_v), list6(&g.step_v));
-        println!("  world-space ray initial pos {} step {}", list6(&g.start_w), list6(&g.step_w));
+        println!(
+            "  view-space ray initial pos {} step {}",
+            list6(&g.start_v),
+            list6(&g.step_v)
+        );
+        println!(
+            "  world-space ray initial pos {} step {}",
+            list6(&g.start_w),
+            list6(&g.step_w)
+        );
         println!("  length of ray step {}", g6(g.step_len));
         let mut convo = Convo::<V, K, S>::new(vol);
-        let plen = spec.params.probe.len();
+        let plen = spec.params.probe.length();
         let mut out = vec![0.0f32; plen];
         let mut cb = |s: &SampleInfo| {
-            let f = |v: &[f32]| v.iter().map(|&x| g6(x as f64)).collect::<Vec<_>>().join(" ");
+            let f = |v: &[f32]| {
+                v.iter()
+                    .map(|&x| g6(x as f64))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
             println!(
                 "  sample {}: view ({}) world ({}) index ({}) inside {}",
                 s.k,
@@ -164,17 +284,42 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             }
         }
     }
-    let lut = a.get_str("lut").map(|f| rnd_std::files::load_lut(Path::new(&f))).transpose()?;
-    let lev = a.get_str("lev").map(|f| rnd_std::files::load_levoy(Path::new(&f))).transpose()?;
-    let lights = a.get_str("lit").map(|f| rnd_std::files::load_lights(Path::new(&f))).transpose()?;
-    let spec = RenderSpec::new(params, lut.as_ref(), lev.as_ref(), lights.as_deref().unwrap_or(&[]))?;
+    let lut = a
+        .get_str("lut")
+        .map(|f| rnd_std::files::load_lut(Path::new(&f)))
+        .transpose()?;
+    let lev = a
+        .get_str("lev")
+        .map(|f| rnd_std::files::load_levoy(Path::new(&f)))
+        .transpose()?;
+    let lights = a
+        .get_str("lit")
+        .map(|f| rnd_std::files::load_lights(Path::new(&f)))
+        .transpose()?;
+    let spec = RenderSpec::new(
+        params,
+        lut.as_ref(),
+        lev.as_ref(),
+        lights.as_deref().unwrap_or(&[]),
+    )?;
     let vol = rnd_std::volume_io::load_volume(&input)?;
     if debug {
         let [w, h] = spec.size();
         if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {
-            bail!("-db: pixel ({} {}) is not inside the {w} x {h} image", db[0], db[1]);
+            bail!(
+                "-db: pixel ({} {}) is not inside the {w} x {h} image",
+                db[0],
+                db[1]
+            );
         }
-        dispatch(vol.view(), kernel, Trace { spec: &spec, px: [db[0] as u32, db[1] as u32] });
+        dispatch(
+            vol.view(),
+            kernel,
+            Trace {
+                spec: &spec,
+                px: [db[0] as u32, db[1] as u32],
+            },
+        );
         return Ok(());
     }
     if a.flag("petc") {
@@ -196,13 +341,22 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     }
     let t0 = std::time::Instant::now();
     let data = rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress);
-    if std::env::var("RND_VERBOSE").ok().and_then(|v| v.parse::<i32>().ok()).unwrap_or(0) > 0 {
+    if std::env::var("RND_VERBOSE")
+        .ok()
+        .and_then(|v| v.parse::<i32>().ok())
+        .unwrap_or(0)
+        > 0
+    {
         eprintln!(
             "rendr go: {} seconds to render (w/ {threads} threads)",
             g6(t0.elapsed().as_secs_f64())
         );
     }
-    let img = Image { data, channels: spec.channels, size: [w as usize, h as usize] };
+    let img = Image {
+        data,
+        channels: spec.channels,
+        size: [w as usize, h as usize],
+    };
     let o = out.unwrap_or_default();
     write_image(&img, &o, &super::content("go", a), q).with_context(|| "writing the image")?;
     Ok(())

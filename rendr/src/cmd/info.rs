@@ -4,7 +4,7 @@ use std::path::Path;
 
 use rnd_core::math::v3;
 
-use crate::args::{Arity, Args, CmdSpec, Pos};
+use crate::args::{Args, Arity, CmdSpec, Pos};
 use crate::fmt::{g9, list9, matrix};
 
 pub static SPEC: CmdSpec = CmdSpec {
@@ -16,7 +16,11 @@ pub static SPEC: CmdSpec = CmdSpec {
            render it (other types, spaces or centrings).",
     response_files: false,
     opts: &[],
-    pos: &[Pos { name: "input", arity: Arity::Var(1), help: "volume file(s) (- = stdin)" }],
+    pos: &[Pos {
+        name: "input",
+        arity: Arity::Var(1),
+        help: "volume file(s) (- = stdin)",
+    }],
 };
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
@@ -26,24 +30,42 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         let (lo, hi) = v.min_max();
         println!("==============================");
         println!("{f}");
-        println!("{s0} by {s1} by {s2} volume with type {} voxels", v.type_name());
+        println!(
+            "{s0} by {s1} by {s2} volume with type {} voxels",
+            v.type_name()
+        );
         if v.file_type != "float" && v.file_type != "short" {
             println!("(file holds {} samples)", v.file_type);
         }
         println!("[{}, {}] is range of values", g9(lo), g9(hi));
-        print!("Image-to-World orientation matrix ItoW is:\n{}", matrix(&v.itow, g9));
+        print!(
+            "Image-to-World orientation matrix ItoW is:\n{}",
+            matrix(&v.itow, g9)
+        );
         let wtoi = v.itow.affine_inverse()?;
-        print!("World-to-Image inverse of ItoW (via rnd_m4_affine_inv):\n{}", matrix(&wtoi, g9));
+        print!(
+            "World-to-Image inverse of ItoW (via rnd_m4_affine_inv):\n{}",
+            matrix(&wtoi, g9)
+        );
         let cols: Vec<[f64; 3]> = (0..3).map(|c| v.itow.column3(c)).collect();
         let sp: Vec<f64> = cols.iter().map(|c| v3::len(*c)).collect();
         println!("The spacings between samples are:");
-        println!(" {} (average {})", list9(&sp), g9(sp.iter().sum::<f64>() / 3.0));
+        println!(
+            " {} (average {})",
+            list9(&sp),
+            g9(sp.iter().sum::<f64>() / 3.0)
+        );
         let ang = |a: usize, b: usize| {
             let c = v3::dot(cols[a], cols[b]) / (sp[a] * sp[b]);
             rnd_core::math::acos(c.clamp(-1.0, 1.0)).to_degrees()
         };
         println!("Angles (in degrees) between data axes are:");
-        println!("{} (0/1), {} (0/2), {} (1/2)", g9(ang(0, 1)), g9(ang(0, 2)), g9(ang(1, 2)));
+        println!(
+            "{} (0/1), {} (0/2), {} (1/2)",
+            g9(ang(0, 1)),
+            g9(ang(0, 2)),
+            g9(ang(1, 2))
+        );
         println!("The corners of the extent of the cell-centered samples are:");
         for k in 0..2 {
             for j in 0..2 {
@@ -57,7 +79,11 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                 }
             }
         }
-        let c = [(s0 as f64 - 1.0) / 2.0, (s1 as f64 - 1.0) / 2.0, (s2 as f64 - 1.0) / 2.0];
+        let c = [
+            (s0 as f64 - 1.0) / 2.0,
+            (s1 as f64 - 1.0) / 2.0,
+            (s2 as f64 - 1.0) / 2.0,
+        ];
         println!("The center of the volume is at:");
         println!("{}\t= ItoW({})", list9(&v.itow.point(c)), list9(&c));
         if !v.notes.is_empty() {

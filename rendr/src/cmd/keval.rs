@@ -2,7 +2,7 @@
 
 use rnd_core::kernel::KernelName;
 
-use crate::args::{def, flag, opt, parse_named, Arity, Args, CmdSpec, Pos};
+use crate::args::{def, flag, opt, parse_named, Args, Arity, CmdSpec, Pos};
 use crate::fmt::g9;
 
 pub static SPEC: CmdSpec = CmdSpec {
@@ -14,12 +14,31 @@ pub static SPEC: CmdSpec = CmdSpec {
     response_files: false,
     opts: &[
         flag(&["s"], "first print the kernel's support"),
-        def(&["d"], 1, "0", "derivs", "also print derivatives up to this order (0, 1 or 2)"),
-        opt(&["a"], 1, "alpha", "print the convolution weights at fractional position alpha"),
+        def(
+            &["d"],
+            1,
+            "0",
+            "derivs",
+            "also print derivatives up to this order (0, 1 or 2)",
+        ),
+        opt(
+            &["a"],
+            1,
+            "alpha",
+            "print the convolution weights at fractional position alpha",
+        ),
     ],
     pos: &[
-        Pos { name: "kernel", arity: Arity::Fixed(1), help: "kernel name (see \"rendr klist\")" },
-        Pos { name: "pos", arity: Arity::Fixed(1), help: "position at which to evaluate" },
+        Pos {
+            name: "kernel",
+            arity: Arity::Fixed(1),
+            help: "kernel name (see \"rendr klist\")",
+        },
+        Pos {
+            name: "pos",
+            arity: Arity::Fixed(1),
+            help: "position at which to evaluate",
+        },
     ],
 };
 
@@ -46,7 +65,12 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             let w: Vec<String> = (0..k.support() as i32)
                 .map(|j| g9(k.eval(al - (lo + j) as f64, i as u32)))
                 .collect();
-            println!("{} = {pre}{} weights at alpha={}", w.join(" "), k.title(), g9(al));
+            println!(
+                "{} = {pre}{} weights at alpha={}",
+                w.join(" "),
+                k.title(),
+                g9(al)
+            );
         }
     }
     Ok(())

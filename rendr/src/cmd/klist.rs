@@ -20,9 +20,18 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          samples per axis a convolution reads (S^3 voxels in 3-D); every kernel knows\n\
          its first and second derivative kernels (same support), used for gradients."
     );
-    let w = KernelName::ALL.iter().map(|k| k.title().len()).max().unwrap_or(0);
+    let w = KernelName::ALL
+        .iter()
+        .map(|k| k.title().len())
+        .max()
+        .unwrap_or(0);
     for k in KernelName::ALL {
-        println!("=== {:w$} (support {}): {}", k.title(), k.support(), k.description());
+        println!(
+            "=== {:w$} (support {}): {}",
+            k.title(),
+            k.support(),
+            k.description()
+        );
         println!("      d{}, dd{}", k.title(), k.title());
     }
     Ok(())

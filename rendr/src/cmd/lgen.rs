@@ -18,13 +18,29 @@ pub static SPEC: CmdSpec = CmdSpec {
            over a banded grey background, whose visibility shows transparency.",
     response_files: false,
     opts: &[
-        req(&["i"], 2, "cTxf aTxf", "colour and opacity control-point files (x = none)"),
-        def(&["rs"], 2, "false false", "cRscl aRscl", "rescale colour / opacity txf domain to the LUT domain"),
+        req(
+            &["i"],
+            2,
+            "cTxf aTxf",
+            "colour and opacity control-point files (x = none)",
+        ),
+        def(
+            &["rs"],
+            2,
+            "false false",
+            "cRscl aRscl",
+            "rescale colour / opacity txf domain to the LUT domain",
+        ),
         def(&["l"], 1, "512", "len", "LUT length"),
         req(&["mm"], 2, "min max", "LUT domain"),
         req(&["o"], 1, "lut", "output LUT (NRRD)"),
         def(&["h"], 1, "100", "hght", "height of the -oi picture"),
-        opt(&["oi"], 1, "img", "also write an 8-bit RGB picture (PNG) of the LUT"),
+        opt(
+            &["oi"],
+            1,
+            "img",
+            "also write an 8-bit RGB picture (PNG) of the LUT",
+        ),
     ],
     pos: &[],
 };
@@ -54,7 +70,11 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let [lo, hi] = a.get_arr::<f64, 2>("mm")?;
     let hgt: usize = a.get("h")?;
     let load = |f: &str| -> anyhow::Result<_> {
-        Ok(if f == "x" { None } else { Some(rnd_std::files::load_txf(Path::new(f))?) })
+        Ok(if f == "x" {
+            None
+        } else {
+            Some(rnd_std::files::load_txf(Path::new(f))?)
+        })
     };
     let ctxf = load(&files[0])?;
     let atxf = load(&files[1])?;
@@ -66,7 +86,9 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     }
     let lut = Lut::generate(ctxf.as_ref(), atxf.as_ref(), crs, ars, len, lo, hi)?;
     if ctxf.is_none() && atxf.is_none() {
-        eprintln!("rendr lgen: warning: no transfer functions (both \"x\"): r,g,b,a = 1 everywhere");
+        eprintln!(
+            "rendr lgen: warning: no transfer functions (both \"x\"): r,g,b,a = 1 everywhere"
+        );
     }
     let data: Vec<f32> = lut.entries().iter().flatten().copied().collect();
     let mut n = Nrrd::new(vec![4, len], Data::F32(data))?;

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::{bail, Context};
 use rnd_core::affine::Affine4;
 
-use crate::args::{Arity, Args, CmdSpec, Pos};
+use crate::args::{Args, Arity, CmdSpec, Pos};
 use crate::fmt::{g9, matrix};
 
 pub static SPEC: CmdSpec = CmdSpec {
@@ -16,7 +16,11 @@ pub static SPEC: CmdSpec = CmdSpec {
            of A*Ai - I.",
     response_files: false,
     opts: &[],
-    pos: &[Pos { name: "fname", arity: Arity::Fixed(1), help: "4x4 matrix file (text or NRRD; - = stdin)" }],
+    pos: &[Pos {
+        name: "fname",
+        arity: Arity::Fixed(1),
+        help: "4x4 matrix file (text or NRRD; - = stdin)",
+    }],
 };
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
@@ -26,16 +30,23 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         bail!("{f}: need a 4x4 matrix, got sizes {:?}", n.sizes());
     }
     let v = n.data.to_f64();
-    let m: [f64; 16] = v.try_into().map_err(|_| anyhow::anyhow!("{f}: need 16 numbers"))?;
+    let m: [f64; 16] = v
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("{f}: need 16 numbers"))?;
     let am = Affine4::from_rows(m);
     if !am.is_affine() {
         bail!("{f}: bottom row is not 0 0 0 1, so the matrix is not affine");
     }
-    let ai = am.affine_inverse().with_context(|| format!("{f}: can't invert"))?;
+    let ai = am
+        .affine_inverse()
+        .with_context(|| format!("{f}: can't invert"))?;
     let p = am.mul(&ai);
     print!("A =\n{}", matrix(&am, g9));
     print!("Ai =\n{}", matrix(&ai, g9));
     print!("A*Ai =\n{}", matrix(&p, g9));
-    println!("{} = FrobeniusNorm(P-I)   (should be nearly zero)", g9(p.frobenius_from_identity()));
+    println!(
+        "{} = FrobeniusNorm(P-I)   (should be nearly zero)",
+        g9(p.frobenius_from_identity())
+    );
     Ok(())
 }

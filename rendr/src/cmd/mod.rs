@@ -27,23 +27,73 @@ pub struct Command {
 
 /// Every command, in listing order.
 pub static COMMANDS: &[Command] = &[
-    Command { spec: &about::SPEC, aliases: &[], run: about::run },
-    Command { spec: &m4ai::SPEC, aliases: &["m4ai"], run: m4ai::run },
-    Command { spec: &cam::SPEC, aliases: &[], run: cam::run },
-    Command { spec: &teval::SPEC, aliases: &[], run: teval::run },
-    Command { spec: &lgen::SPEC, aliases: &[], run: lgen::run },
-    Command { spec: &levoy::SPEC, aliases: &[], run: levoy::run },
-    Command { spec: &ceval::SPEC, aliases: &[], run: ceval::run },
-    Command { spec: &go::SPEC, aliases: &[], run: go::run },
-    Command { spec: &klist::SPEC, aliases: &[], run: klist::run },
-    Command { spec: &keval::SPEC, aliases: &[], run: keval::run },
-    Command { spec: &info::SPEC, aliases: &[], run: info::run },
-    Command { spec: &sdg::SPEC, aliases: &[], run: sdg::run },
+    Command {
+        spec: &about::SPEC,
+        aliases: &[],
+        run: about::run,
+    },
+    Command {
+        spec: &m4ai::SPEC,
+        aliases: &["m4ai"],
+        run: m4ai::run,
+    },
+    Command {
+        spec: &cam::SPEC,
+        aliases: &[],
+        run: cam::run,
+    },
+    Command {
+        spec: &teval::SPEC,
+        aliases: &[],
+        run: teval::run,
+    },
+    Command {
+        spec: &lgen::SPEC,
+        aliases: &[],
+        run: lgen::run,
+    },
+    Command {
+        spec: &levoy::SPEC,
+        aliases: &[],
+        run: levoy::run,
+    },
+    Command {
+        spec: &ceval::SPEC,
+        aliases: &[],
+        run: ceval::run,
+    },
+    Command {
+        spec: &go::SPEC,
+        aliases: &[],
+        run: go::run,
+    },
+    Command {
+        spec: &klist::SPEC,
+        aliases: &[],
+        run: klist::run,
+    },
+    Command {
+        spec: &keval::SPEC,
+        aliases: &[],
+        run: keval::run,
+    },
+    Command {
+        spec: &info::SPEC,
+        aliases: &[],
+        run: info::run,
+    },
+    Command {
+        spec: &sdg::SPEC,
+        aliases: &[],
+        run: sdg::run,
+    },
 ];
 
 /// Finds a command by name or alias.
 pub fn find(name: &str) -> Option<&'static Command> {
-    COMMANDS.iter().find(|c| c.spec.name == name || c.aliases.contains(&name))
+    COMMANDS
+        .iter()
+        .find(|c| c.spec.name == name || c.aliases.contains(&name))
 }
 
 /// The `content:` text for an output: the command line that made it.
@@ -66,7 +116,10 @@ pub fn check_not_input(out: &std::path::Path, input: &std::path::Path) -> anyhow
         _ => false,
     };
     if same {
-        anyhow::bail!("-o {}: output would overwrite the input file", out.display());
+        anyhow::bail!(
+            "-o {}: output would overwrite the input file",
+            out.display()
+        );
     }
     Ok(())
 }

@@ -21,14 +21,56 @@ pub static SPEC: CmdSpec = CmdSpec {
            Short output (-t short) stores round(f * sval / fval) (-vs fval sval).",
     response_files: false,
     opts: &[
-        def(&["w"], 1, "0", "which", "which function to sample (see above)"),
-        def(&["sz"], 3, "64 64 64", "s0 s1 s2", "number of samples on each axis"),
-        def(&["l"], 3, "2 2 2", "l0 l1 l2", "edge lengths of the sampled box (world units)"),
+        def(
+            &["w"],
+            1,
+            "0",
+            "which",
+            "which function to sample (see above)",
+        ),
+        def(
+            &["sz"],
+            3,
+            "64 64 64",
+            "s0 s1 s2",
+            "number of samples on each axis",
+        ),
+        def(
+            &["l"],
+            3,
+            "2 2 2",
+            "l0 l1 l2",
+            "edge lengths of the sampled box (world units)",
+        ),
         def(&["sh"], 3, "0 0 0", "xy xz yz", "shear coefficients"),
-        def(&["r"], 3, "0 0 0", "x y z", "rotation: quaternion (1,x,y,z), normalized"),
-        def(&["c"], 3, "0 0 0", "x y z", "world-space centre of the volume"),
-        def(&["t"], 1, "real", "type", "output type: real (float) or short"),
-        def(&["vs"], 2, "1 10000", "fval sval", "short output stores round(f * sval / fval)"),
+        def(
+            &["r"],
+            3,
+            "0 0 0",
+            "x y z",
+            "rotation: quaternion (1,x,y,z), normalized",
+        ),
+        def(
+            &["c"],
+            3,
+            "0 0 0",
+            "x y z",
+            "world-space centre of the volume",
+        ),
+        def(
+            &["t"],
+            1,
+            "real",
+            "type",
+            "output type: real (float) or short",
+        ),
+        def(
+            &["vs"],
+            2,
+            "1 10000",
+            "fval sval",
+            "short output stores round(f * sval / fval)",
+        ),
         req(&["o"], 1, "fout", "output volume (- = stdout)"),
     ],
     pos: &[],
@@ -57,7 +99,12 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let n = sizes.iter().try_fold(1usize, |x, &s| x.checked_mul(s));
     let need = n.and_then(|n| n.checked_mul(if short { 2 } else { 4 } + 8));
     match need {
-        None => bail!("-sz: {} x {} x {} samples is too many", sizes[0], sizes[1], sizes[2]),
+        None => bail!(
+            "-sz: {} x {} x {} samples is too many",
+            sizes[0],
+            sizes[1],
+            sizes[2]
+        ),
         Some(b) => {
             if let Some(t) = rnd_std::mem_total() {
                 if b as u64 > t {
@@ -102,6 +149,13 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     h.centerings = Some(vec![Centering::Cell; 3]);
     h.kinds = Some(vec!["domain".into(); 3]);
     let o = a.get_str("o").unwrap_or_default();
-    nrrd::write(&out, Path::new(&o), WriteOptions { encoding: Encoding::Gzip, ..Default::default() })?;
+    nrrd::write(
+        &out,
+        Path::new(&o),
+        WriteOptions {
+            encoding: Encoding::Gzip,
+            ..Default::default()
+        },
+    )?;
     Ok(())
 }

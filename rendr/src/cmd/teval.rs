@@ -4,7 +4,7 @@ use std::path::Path;
 
 use rnd_core::txf::TxfSpace;
 
-use crate::args::{Arity, Args, CmdSpec, Pos};
+use crate::args::{Args, Arity, CmdSpec, Pos};
 use crate::fmt::{g9, list9};
 
 pub static SPEC: CmdSpec = CmdSpec {
@@ -15,18 +15,32 @@ pub static SPEC: CmdSpec = CmdSpec {
     response_files: false,
     opts: &[],
     pos: &[
-        Pos { name: "txf", arity: Arity::Fixed(1), help: "control-point file (#space:=rgb, hsv or alpha)" },
-        Pos { name: "val", arity: Arity::Fixed(1), help: "value at which to evaluate" },
+        Pos {
+            name: "txf",
+            arity: Arity::Fixed(1),
+            help: "control-point file (#space:=rgb, hsv or alpha)",
+        },
+        Pos {
+            name: "val",
+            arity: Arity::Fixed(1),
+            help: "value at which to evaluate",
+        },
     ],
 };
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
     let f = &a.pos(0)[0];
     let vs = &a.pos(1)[0];
-    let v: f64 = vs.parse().map_err(|_| anyhow::anyhow!("<val>: can't parse \"{vs}\" as a real number"))?;
+    let v: f64 = vs
+        .parse()
+        .map_err(|_| anyhow::anyhow!("<val>: can't parse \"{vs}\" as a real number"))?;
     let t = rnd_std::files::load_txf(Path::new(f))?;
     let out = t.eval(v);
-    let shown = if t.space() == TxfSpace::Alpha { list9(&out[..1]) } else { list9(&out) };
+    let shown = if t.space() == TxfSpace::Alpha {
+        list9(&out[..1])
+    } else {
+        list9(&out)
+    };
     println!("{shown} = {f}({})", g9(v));
     Ok(())
 }

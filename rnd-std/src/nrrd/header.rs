@@ -79,9 +79,17 @@ impl ScalarType {
             }
             "int" | "signed int" | "int32" | "int32_t" => ScalarType::I32,
             "uint" | "unsigned int" | "uint32" | "uint32_t" => ScalarType::U32,
-            "longlong" | "long long" | "long long int" | "signed long long"
-            | "signed long long int" | "int64" | "int64_t" => ScalarType::I64,
-            "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64"
+            "longlong"
+            | "long long"
+            | "long long int"
+            | "signed long long"
+            | "signed long long int"
+            | "int64"
+            | "int64_t" => ScalarType::I64,
+            "ulonglong"
+            | "unsigned long long"
+            | "unsigned long long int"
+            | "uint64"
             | "uint64_t" => ScalarType::U64,
             "float" => ScalarType::F32,
             "double" => ScalarType::F64,
@@ -117,8 +125,13 @@ pub enum Encoding {
 
 impl Encoding {
     /// Every encoding.
-    pub const ALL: [Encoding; 5] =
-        [Encoding::Raw, Encoding::Ascii, Encoding::Hex, Encoding::Gzip, Encoding::Bzip2];
+    pub const ALL: [Encoding; 5] = [
+        Encoding::Raw,
+        Encoding::Ascii,
+        Encoding::Hex,
+        Encoding::Gzip,
+        Encoding::Bzip2,
+    ];
     /// Name as written in headers.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -252,7 +265,11 @@ impl Header {
     }
     /// Value of key `k` in the key/value pairs.
     pub fn key(&self, k: &str) -> Option<&str> {
-        self.key_values.iter().rev().find(|(a, _)| a == k).map(|(_, v)| v.as_str())
+        self.key_values
+            .iter()
+            .rev()
+            .find(|(a, _)| a == k)
+            .map(|(_, v)| v.as_str())
     }
     /// Space dimension, from `space` or `space dimension`.
     pub fn space_dim(&self) -> Option<usize> {

@@ -83,14 +83,17 @@ impl Data {
         }
     }
     /// Sample `i` as f64.
+    #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
     pub fn get_f64(&self, i: usize) -> f64 {
         each_data!(self, v => v[i] as f64)
     }
     /// All samples as f64.
+    #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
     pub fn to_f64(&self) -> Vec<f64> {
         each_data!(self, v => v.iter().map(|&x| x as f64).collect())
     }
     /// All samples as f32 (rounded for wider types).
+    #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
     pub fn to_f32(&self) -> Vec<f32> {
         match self {
             Data::F32(v) => v.clone(),

@@ -11,7 +11,9 @@ use crate::{Error, Result};
 pub fn read(path: &Path) -> Result<Nrrd> {
     let bytes = if path.as_os_str() == "-" {
         let mut b = Vec::new();
-        std::io::stdin().read_to_end(&mut b).map_err(|e| Error::io(path, "can't read", e))?;
+        std::io::stdin()
+            .read_to_end(&mut b)
+            .map_err(|e| Error::io(path, "can't read", e))?;
         b
     } else {
         std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?
@@ -25,7 +27,9 @@ pub fn read(path: &Path) -> Result<Nrrd> {
 pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
     if !bytes.starts_with(b"NRRD") {
         if bytes.starts_with(b"\x1f\x8b") {
-            return Err(Error::msg("not a NRRD file (looks like a bare gzip stream)"));
+            return Err(Error::msg(
+                "not a NRRD file (looks like a bare gzip stream)",
+            ));
         }
         let text = std::str::from_utf8(bytes)
             .map_err(|_| Error::msg("not a NRRD file (no NRRD magic) and not a text array"))?;
@@ -38,7 +42,11 @@ pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
         Some(files) => {
             let mut all = Vec::new();
             for f in &files {
-                let p = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
+                let p = if Path::new(f).is_absolute() {
+                    PathBuf::from(f)
+                } else {
+                    dir.join(f)
+                };
                 let b =
                     std::fs::read(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
                 all.push(b);
@@ -86,7 +94,10 @@ fn split_header(bytes: &[u8]) -> Result<(&str, usize)> {
     let mut end = bytes.len();
     let mut data_off = bytes.len();
     while pos < bytes.len() {
-        let nl = bytes[pos..].iter().position(|&b| b == b'\n').map(|i| pos + i);
+        let nl = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map(|i| pos + i);
         let line_end = nl.unwrap_or(bytes.len());
         let line = &bytes[pos..line_end];
         let line = line.strip_suffix(b"\r").unwrap_or(line);
@@ -127,10 +138,16 @@ fn canonical_space(s: &str) -> String {
 fn parse_f64s(field: &str, v: &str, n: usize) -> Result<Vec<f64>> {
     let out: Vec<f64> = v
         .split_whitespace()
-        .map(|w| parse_f64(w).ok_or_else(|| Error::msg(format!("{field}: can't parse \"{w}\" as a number"))))
+        .map(|w| {
+            parse_f64(w)
+                .ok_or_else(|| Error::msg(format!("{field}: can't parse \"{w}\" as a number")))
+        })
         .collect::<Result<_>>()?;
     if out.len() != n {
-        return Err(Error::msg(format!("{field}: got {} values, dimension is {n}", out.len())));
+        return Err(Error::msg(format!(
+            "{field}: got {} values, dimension is {n}",
+            out.len()
+        )));
     }
     Ok(out)
 }
@@ -155,7 +172,8 @@ fn parse_vector(s: &str) -> Result<Vec<f64>> {
     inner
         .split(',')
         .map(|w| {
-            parse_f64(w.trim()).ok_or_else(|| Error::msg(format!("can't parse \"{w}\" in vector \"{s}\"")))
+            parse_f64(w.trim())
+                .ok_or_else(|| Error::msg(format!("can't parse \"{w}\" in vector \"{s}\"")))
         })
         .collect()
 }
@@ -227,7 +245,9 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
         let line = line.trim_end_matches('\r');
         if list_mode {
             if !line.trim().is_empty() {
-                data_file.get_or_insert_with(Vec::new).push(line.trim().to_string());
+                data_file
+                    .get_or_insert_with(Vec::new)
+                    .push(line.trim().to_string());
             }
             continue;
         }
@@ -272,22 +292,29 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                 let s: Vec<usize> = value
                     .split_whitespace()
                     .map(|w| {
-                        w.parse::<usize>()
-                            .map_err(|_| Error::msg(format!("sizes: can't parse \"{w}\" as a size")))
+                        w.parse::<usize>().map_err(|_| {
+                            Error::msg(format!("sizes: can't parse \"{w}\" as a size"))
+                        })
                     })
                     .collect::<Result<_>>()?;
                 sizes = Some(s);
             }
             "encoding" => {
                 encoding = Some(Encoding::parse(value).ok_or_else(|| {
-                    Error::msg(format!("encoding: unknown or unsupported encoding \"{value}\""))
+                    Error::msg(format!(
+                        "encoding: unknown or unsupported encoding \"{value}\""
+                    ))
                 })?)
             }
             "endian" => {
                 endian = Some(match value.to_ascii_lowercase().as_str() {
                     "little" => Endian::Little,
                     "big" => Endian::Big,
-                    _ => return Err(Error::msg(format!("endian: \"{value}\" is not little or big"))),
+                    _ => {
+                        return Err(Error::msg(format!(
+                            "endian: \"{value}\" is not little or big"
+                        )))
+                    }
                 })
             }
             "content" => h.content = Some(value.to_string()),
@@ -307,7 +334,10 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                     .parse()
                     .map_err(|_| Error::msg(format!("byte skip: can't parse \"{value}\"")))?;
                 if skips.byte < -1 {
-                    return Err(Error::msg(format!("byte skip: {} must be >= -1", skips.byte)));
+                    return Err(Error::msg(format!(
+                        "byte skip: {} must be >= -1",
+                        skips.byte
+                    )));
                 }
             }
             "line skip" | "lineskip" => {
@@ -344,17 +374,28 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
         return Err(Error::msg(format!("sizes: an axis has size 0 ({sizes:?})")));
     }
     let encoding = encoding.ok_or_else(|| Error::msg("header has no \"encoding\" field"))?;
-    let needs_endian = scalar.size() > 1 && matches!(encoding, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2 | Encoding::Hex);
+    let needs_endian = scalar.size() > 1
+        && matches!(
+            encoding,
+            Encoding::Raw | Encoding::Gzip | Encoding::Bzip2 | Encoding::Hex
+        );
     let endian = match endian {
         Some(e) => e,
         None if needs_endian => return Err(Error::msg("header has no \"endian\" field")),
         None => Endian::Little,
     };
     for (field, value) in per_axis {
-        let words = || value.split_whitespace().map(str::to_string).collect::<Vec<_>>();
+        let words = || {
+            value
+                .split_whitespace()
+                .map(str::to_string)
+                .collect::<Vec<_>>()
+        };
         let check = |n: usize| -> Result<()> {
             if n != dim {
-                Err(Error::msg(format!("{field}: got {n} values, dimension is {dim}")))
+                Err(Error::msg(format!(
+                    "{field}: got {n} values, dimension is {dim}"
+                )))
             } else {
                 Ok(())
             }
@@ -437,7 +478,9 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
 fn expand_format(value: &str) -> Result<Vec<String>> {
     let w: Vec<&str> = value.split_whitespace().collect();
     if w.len() < 4 {
-        return Err(Error::msg(format!("data file: \"{value}\" needs <format> <min> <max> <step>")));
+        return Err(Error::msg(format!(
+            "data file: \"{value}\" needs <format> <min> <max> <step>"
+        )));
     }
     let num = |s: &str| {
         s.parse::<i64>()
@@ -445,7 +488,9 @@ fn expand_format(value: &str) -> Result<Vec<String>> {
     };
     let (min, max, step) = (num(w[1])?, num(w[2])?, num(w[3])?);
     if step == 0 || (max - min) / step < 0 || (max - min) / step > 100_000 {
-        return Err(Error::msg(format!("data file: bad range {min} {max} {step}")));
+        return Err(Error::msg(format!(
+            "data file: bad range {min} {max} {step}"
+        )));
     }
     let mut out = Vec::new();
     let mut i = min;
@@ -467,10 +512,16 @@ fn format_printf_int(fmt: &str, v: i64) -> Result<String> {
         .ok_or_else(|| Error::msg(format!("data file: bad format \"{fmt}\"")))?;
     let spec = &rest[..end];
     if !matches!(&rest[end..end + 1], "d" | "u" | "i") {
-        return Err(Error::msg(format!("data file: only %d formats are supported (\"{fmt}\")")));
+        return Err(Error::msg(format!(
+            "data file: only %d formats are supported (\"{fmt}\")"
+        )));
     }
     let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
-    let s = if spec.starts_with('0') { format!("{v:0width$}") } else { format!("{v:width$}") };
+    let s = if spec.starts_with('0') {
+        format!("{v:0width$}")
+    } else {
+        format!("{v:width$}")
+    };
     Ok(format!("{}{}{}", &fmt[..p], s, &rest[end + 1..]))
 }
 
@@ -515,7 +566,9 @@ pub(crate) fn check_memory(bytes: usize, what: &str) -> Result<()> {
 }
 
 fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
-    let n = h.count().ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
+    let n = h
+        .count()
+        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
     let tsz = h.scalar.size();
     let nbytes = n
         .checked_mul(tsz)
@@ -539,12 +592,19 @@ fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
             let mut out = Vec::new();
             let lim = nbytes as u64;
             let r = if h.encoding == Encoding::Gzip {
-                flate2::read::MultiGzDecoder::new(b).take(lim).read_to_end(&mut out)
+                flate2::read::MultiGzDecoder::new(b)
+                    .take(lim)
+                    .read_to_end(&mut out)
             } else {
-                bzip2::read::MultiBzDecoder::new(b).take(lim).read_to_end(&mut out)
+                bzip2::read::MultiBzDecoder::new(b)
+                    .take(lim)
+                    .read_to_end(&mut out)
             };
             r.map_err(|e| {
-                Error::msg(format!("{} data can't be decompressed: {e}", h.encoding.as_str()))
+                Error::msg(format!(
+                    "{} data can't be decompressed: {e}",
+                    h.encoding.as_str()
+                ))
             })?;
             if out.len() < nbytes {
                 return Err(Error::msg(format!(
@@ -570,7 +630,12 @@ fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
                     b'a'..=b'f' => c - b'a' + 10,
                     b'A'..=b'F' => c - b'A' + 10,
                     c if c.is_ascii_whitespace() => continue,
-                    _ => return Err(Error::msg(format!("hex data: bad character {:?}", c as char))),
+                    _ => {
+                        return Err(Error::msg(format!(
+                            "hex data: bad character {:?}",
+                            c as char
+                        )))
+                    }
                 };
                 match hi.take() {
                     None => hi = Some(v),
@@ -603,7 +668,8 @@ fn ascii_data(t: ScalarType, text: &str, n: usize) -> Result<Data> {
         if vals.len() == n {
             break;
         }
-        let v = parse_f64(w).ok_or_else(|| Error::msg(format!("ascii data: can't parse \"{w}\"")))?;
+        let v =
+            parse_f64(w).ok_or_else(|| Error::msg(format!("ascii data: can't parse \"{w}\"")))?;
         vals.push(v);
     }
     if vals.len() < n {
@@ -664,5 +730,8 @@ fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Data {
 
 /// Centering helper for callers: per-axis centring or Unknown.
 pub fn centering(h: &Header, axis: usize) -> Centering {
-    h.centerings.as_ref().and_then(|c| c.get(axis).copied()).unwrap_or(Centering::Unknown)
+    h.centerings
+        .as_ref()
+        .and_then(|c| c.get(axis).copied())
+        .unwrap_or(Centering::Unknown)
 }

@@ -24,8 +24,10 @@ pub fn parse_text(text: &str) -> Result<Nrrd> {
         }
         // Trailing comments are not part of the text format.
         let line = line.split('#').next().unwrap_or("");
-        let words: Vec<&str> =
-            line.split(|c: char| c.is_whitespace() || c == ',').filter(|w| !w.is_empty()).collect();
+        let words: Vec<&str> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|w| !w.is_empty())
+            .collect();
         if words.is_empty() {
             continue;
         }
@@ -53,7 +55,10 @@ pub fn parse_text(text: &str) -> Result<Nrrd> {
     header.key_values = kv;
     header.centerings = Some(vec![Centering::Unknown; 2]);
     header.centerings = None;
-    Ok(Nrrd { header, data: Data::F64(vals) })
+    Ok(Nrrd {
+        header,
+        data: Data::F64(vals),
+    })
 }
 
 /// Writes a 1-D or 2-D array as text: key/values as `#key:=value`, then one row per line.
@@ -63,7 +68,12 @@ pub fn write_text(n: &Nrrd, w: &mut dyn Write) -> Result<()> {
     let cols = match sizes.len() {
         1 => 1,
         2 => sizes[0],
-        _ => return Err(Error::msg(format!("text output needs 1-D or 2-D data, not {}-D", sizes.len()))),
+        _ => {
+            return Err(Error::msg(format!(
+                "text output needs 1-D or 2-D data, not {}-D",
+                sizes.len()
+            )))
+        }
     };
     for (k, v) in &n.header.key_values {
         writeln!(w, "#{k}:={v}").map_err(io)?;

@@ -19,7 +19,10 @@ pub struct WriteOptions {
 
 impl Default for WriteOptions {
     fn default() -> Self {
-        WriteOptions { encoding: Encoding::Raw, endian: Endian::Little }
+        WriteOptions {
+            encoding: Encoding::Raw,
+            endian: Endian::Little,
+        }
     }
 }
 
@@ -27,14 +30,21 @@ fn fmt_f64(x: f64) -> String {
     if x.is_nan() {
         "nan".into()
     } else if x.is_infinite() {
-        if x > 0.0 { "inf".into() } else { "-inf".into() }
+        if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        }
     } else {
         format!("{x}")
     }
 }
 
 fn vec3(v: &[f64]) -> String {
-    format!("({})", v.iter().map(|&x| fmt_f64(x)).collect::<Vec<_>>().join(","))
+    format!(
+        "({})",
+        v.iter().map(|&x| fmt_f64(x)).collect::<Vec<_>>().join(",")
+    )
 }
 
 /// Serializes `n` with options `opt` into `w`.
@@ -55,11 +65,17 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
     }
     s.push_str(&format!(
         "sizes: {}\n",
-        h.sizes.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+        h.sizes
+            .iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
     ));
     if let Some(d) = &h.space_directions {
-        let items: Vec<String> =
-            d.iter().map(|v| v.as_ref().map_or("none".to_string(), |v| vec3(v))).collect();
+        let items: Vec<String> = d
+            .iter()
+            .map(|v| v.as_ref().map_or("none".to_string(), |v| vec3(v)))
+            .collect();
         s.push_str(&format!("space directions: {}\n", items.join(" ")));
     }
     let list = |v: &[f64]| v.iter().map(|&x| fmt_f64(x)).collect::<Vec<_>>().join(" ");
@@ -84,7 +100,10 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
     if let Some(l) = &h.labels {
         s.push_str(&format!(
             "labels: {}\n",
-            l.iter().map(|x| format!("\"{x}\"")).collect::<Vec<_>>().join(" ")
+            l.iter()
+                .map(|x| format!("\"{x}\""))
+                .collect::<Vec<_>>()
+                .join(" ")
         ));
     }
     if h.scalar.size() > 1 && opt.encoding != Encoding::Ascii {

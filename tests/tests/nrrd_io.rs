@@ -1,0 +1,282 @@
+//! NRRD and text IO: round trips of every type × encoding × endian, geometry, and
+//! interop with Teem's `unu` in both directions.
+
+use std::path::Path;
+use std::process::Command;
+
+use proptest::prelude::*;
+use rnd_std::nrrd::{self, Centering, Data, Encoding, Endian, Nrrd, ScalarType, WriteOptions};
+
+fn data_of(t: ScalarType, raw: &[u64]) -> Data {
+    let f = |i: usize| raw[i];
+    let n = raw.len();
+    match t {
+        ScalarType::I8 => Data::I8((0..n).map(|i| f(i) as i8).collect()),
+        ScalarType::U8 => Data::U8((0..n).map(|i| f(i) as u8).collect()),
+        ScalarType::I16 => Data::I16((0..n).map(|i| f(i) as i16).collect()),
+        ScalarType::U16 => Data::U16((0..n).map(|i| f(i) as u16).collect()),
+        ScalarType::I32 => Data::I32((0..n).map(|i| f(i) as i32).collect()),
+        ScalarType::U32 => Data::U32((0..n).map(|i| f(i) as u32).collect()),
+        // 64-bit integers stay within 2^53 so the ascii encoding is exact too.
+        ScalarType::I64 => Data::I64((0..n).map(|i| (f(i) >> 11) as i64 - (1 << 52)).collect()),
+        ScalarType::U64 => Data::U64((0..n).map(|i| f(i) >> 11).collect()),
+        ScalarType::F32 => Data::F32(
+            (0..n)
+                .map(|i| f32::from_bits(f(i) as u32 & 0x7f7f_ffff))
+                .collect(),
+        ),
+        ScalarType::F64 => Data::F64(
+            (0..n)
+                .map(|i| f64::from_bits(f(i) & 0x7fef_ffff_ffff_ffff))
+                .collect(),
+        ),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, .. ProptestConfig::default() })]
+
+    #[test]
+    fn round_trip_every_type_encoding_endian(
+        ti in 0usize..10,
+        ei in 0usize..5,
+        big in any::<bool>(),
+        sizes in prop::collection::vec(1usize..5, 1..4),
+        seed in prop::collection::vec(any::<u64>(), 64),
+    ) {
+        let t = ScalarType::ALL[ti];
+        let enc = Encoding::ALL[ei];
+        let n: usize = sizes.iter().product();
+        let raw: Vec<u64> = (0..n).map(|i| seed[i % 64].rotate_left(i as u32)).collect();
+        let mut a = Nrrd::new(sizes.clone(), data_of(t, &raw)).unwrap();
+        a.header.content = Some("round trip".into());
+        let opt = WriteOptions { encoding: enc, endian: if big { Endian::Big } else { Endian::Little } };
+        let mut bytes = Vec::new();
+        nrrd::write_to(&a, opt, &mut bytes).unwrap();
+        let b = nrrd::read_bytes(&bytes, Path::new(".")).unwrap();
+        prop_assert_eq!(b.sizes(), a.sizes());
+        prop_assert_eq!(b.header.scalar, t);
+        prop_assert_eq!(b.header.content.as_deref(), Some("round trip"));
+        // Bit-exact: compare through the bit patterns for floats.
+        match (&a.data, &b.data) {
+            (Data::F32(x), Data::F32(y)) => prop_assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())),
+            (Data::F64(x), Data::F64(y)) => prop_assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())),
+            (x, y) => prop_assert_eq!(x, y),
+        }
+    }
+
+    #[test]
+    fn geometry_round_trip(
+        dirs in prop::array::uniform9(-10.0f64..10.0),
+        origin in prop::array::uniform3(-100.0f64..100.0),
+        mins in prop::array::uniform3(-5.0f64..5.0),
+    ) {
+        let mut a = Nrrd::new(vec![2, 3, 4], Data::F32(vec![0.5; 24])).unwrap();
+        let h = &mut a.header;
+        h.space = Some("left-posterior-superior".into());
+        h.space_directions = Some(vec![Some(dirs[0..3].to_vec()), Some(dirs[3..6].to_vec()), Some(dirs[6..9].to_vec())]);
+        h.space_origin = Some(origin.to_vec());
+        h.axis_mins = Some(mins.to_vec());
+        h.centerings = Some(vec![Centering::Cell, Centering::Node, Centering::Unknown]);
+        h.kinds = Some(vec!["domain".into(), "domain".into(), "space".into()]);
+        h.key_values = vec![("space".into(), "rgb".into())];
+        let mut bytes = Vec::new();
+        nrrd::write_to(&a, WriteOptions::default(), &mut bytes).unwrap();
+        let b = nrrd::read_bytes(&bytes, Path::new(".")).unwrap();
+        prop_assert_eq!(&b.header.space_directions, &a.header.space_directions);
+        prop_assert_eq!(&b.header.space_origin, &a.header.space_origin);
+        prop_assert_eq!(&b.header.axis_mins, &a.header.axis_mins);
+        prop_assert_eq!(&b.header.centerings, &a.header.centerings);
+        prop_assert_eq!(&b.header.kinds, &a.header.kinds);
+        prop_assert_eq!(b.header.key("space"), Some("rgb"));
+        prop_assert_eq!(b.header.space.as_deref(), Some("left-posterior-superior"));
+    }
+}
+
+#[test]
+fn text_arrays() {
+    let n = nrrd::parse_text("#space:=alpha\n# comment\n0 0  # trailing\n\n1 1\n").unwrap();
+    assert_eq!(n.sizes(), &[2, 2]);
+    assert_eq!(n.header.key("space"), Some("alpha"));
+    assert_eq!(n.data.to_f64(), vec![0.0, 0.0, 1.0, 1.0]);
+    let e = nrrd::parse_text("1 2 3\n4 5\n").unwrap_err();
+    assert!(e.msg.contains("ragged"), "{e}");
+    assert!(nrrd::parse_text("# only comments\n").is_err());
+    assert!(nrrd::parse_text("1 x 3\n")
+        .unwrap_err()
+        .msg
+        .contains("can't parse \"x\""));
+}
+
+fn unu(args: &[&str]) -> String {
+    rnd_tests::run("teem-unu", args)
+}
+
+fn unu_text_values(file: &Path) -> Vec<f64> {
+    // `unu save -f text` needs 1-D or 2-D data: flatten with `unu reshape` first.
+    let n: usize = rnd_std::nrrd::read(file).unwrap().data.len();
+    let cmd = format!(
+        "teem-unu reshape -i '{}' -s {n} | teem-unu save -f text -o -",
+        file.display()
+    );
+    let out = Command::new("sh").args(["-c", &cmd]).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .flat_map(|l| {
+            l.split_whitespace()
+                .map(|w| w.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+#[test]
+fn teem_reads_what_rendr_writes() {
+    if !rnd_tests::teem("teem_reads_what_rendr_writes", "teem-unu") {
+        return;
+    }
+    let d = rnd_tests::tmpdir("teem-reads");
+    let vals: Vec<f32> = (0..24).map(|i| i as f32 * 0.37 - 3.0).collect();
+    for enc in Encoding::ALL {
+        for (t, data) in [
+            (ScalarType::F32, Data::F32(vals.clone())),
+            (
+                ScalarType::I16,
+                Data::I16(vals.iter().map(|&v| (v * 100.0) as i16).collect()),
+            ),
+            (
+                ScalarType::F64,
+                Data::F64(vals.iter().map(|&v| v as f64 / 3.0).collect()),
+            ),
+            (ScalarType::U8, Data::U8((0..24).collect())),
+        ] {
+            let mut n = Nrrd::new(vec![2, 3, 4], data).unwrap();
+            n.header.space = Some("left-posterior-superior".into());
+            n.header.space_directions = Some(vec![
+                Some(vec![0.5, 0., 0.]),
+                Some(vec![0., 2., 0.]),
+                Some(vec![0., 0., 1.]),
+            ]);
+            n.header.space_origin = Some(vec![1.0, 2.0, 3.0]);
+            n.header.centerings = Some(vec![Centering::Cell; 3]);
+            for endian in [Endian::Little, Endian::Big] {
+                let p = d.join(format!("a-{}-{t:?}-{endian:?}.nrrd", enc.as_str()));
+                nrrd::write(
+                    &n,
+                    &p,
+                    WriteOptions {
+                        encoding: enc,
+                        endian,
+                    },
+                )
+                .unwrap();
+                let head = unu(&["head", p.to_str().unwrap()]);
+                assert!(head.contains("sizes: 2 3 4"), "{head}");
+                let got = unu_text_values(&p);
+                let want = n.data.to_f64();
+                assert_eq!(got.len(), want.len());
+                for (g, w) in got.iter().zip(&want) {
+                    assert!(
+                        (g - w).abs() <= 1e-6 * (1.0 + w.abs()),
+                        "{p:?}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn rendr_reads_what_teem_writes() {
+    if !rnd_tests::teem("rendr_reads_what_teem_writes", "teem-unu") {
+        return;
+    }
+    let d = rnd_tests::tmpdir("rendr-reads");
+    // A float volume written by unu from text, then re-encoded every way unu can.
+    let txt = d.join("v.txt");
+    let vals: Vec<f64> = (0..60).map(|i| (i as f64 * 0.731).sin() * 100.0).collect();
+    let lines: Vec<String> = vals
+        .chunks(5)
+        .map(|c| {
+            c.iter()
+                .map(|x| format!("{x}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .collect();
+    std::fs::write(&txt, lines.join("\n") + "\n").unwrap();
+    let base = d.join("base.nrrd");
+    unu(&[
+        "reshape",
+        "-i",
+        txt.to_str().unwrap(),
+        "-s",
+        "5",
+        "3",
+        "4",
+        "-o",
+        base.to_str().unwrap(),
+    ]);
+    let want = nrrd::read(&base).unwrap().data.to_f64();
+    assert_eq!(want.len(), 60);
+    for (args, name) in [
+        (vec!["-e", "raw"], "raw.nrrd"),
+        (vec!["-e", "gzip"], "gz.nrrd"),
+        (vec!["-e", "bzip2"], "bz.nrrd"),
+        (vec!["-e", "ascii"], "ascii.nrrd"),
+        (vec!["-e", "hex"], "hex.nrrd"),
+        (vec!["-e", "raw", "-en", "big"], "big.nrrd"),
+        (vec!["-e", "gzip", "-en", "big"], "biggz.nrrd"),
+        (vec!["-e", "raw"], "detached.nhdr"),
+    ] {
+        let out = d.join(name);
+        let mut a = vec![
+            "save",
+            "-f",
+            "nrrd",
+            "-i",
+            base.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        a.extend(args.iter());
+        unu(&a);
+        let got = nrrd::read(&out).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(got.sizes(), &[5, 3, 4], "{name}");
+        let g = got.data.to_f64();
+        for (x, y) in g.iter().zip(&want) {
+            assert!(
+                (x - y).abs() <= 1e-6 * (1.0 + y.abs()),
+                "{name}: {x} vs {y}"
+            );
+        }
+    }
+    // Other types converted by unu.
+    for t in ["short", "uchar", "int", "double", "ushort"] {
+        let out = d.join(format!("t-{t}.nrrd"));
+        unu(&[
+            "convert",
+            "-t",
+            t,
+            "-i",
+            base.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let got = nrrd::read(&out).unwrap_or_else(|e| panic!("{t}: {e}"));
+        assert_eq!(got.data.len(), 60);
+        let v = rnd_std::volume_io::volume_from_nrrd(got).unwrap();
+        assert_eq!(v.sizes, [5, 3, 4]);
+        assert!(
+            v.notes.iter().any(|n| n.contains("spacing")),
+            "{t}: {:?}",
+            v.notes
+        );
+    }
+}
