@@ -1150,3 +1150,75 @@ fn readme_default_render() {
     let b = rnd_std::nrrd::read(&root.join("data/head-lut.nrrd")).unwrap();
     assert_eq!(a.data, b.data);
 }
+
+#[test]
+fn teval_levoy_and_lut_picture() {
+    let d = rnd_tests::tmpdir("teval");
+    std::fs::write(
+        d.join("a.txt"),
+        "#space:=alpha\n0.00 0\n0.80 0\n0.90 1\n1.00 1\n",
+    )
+    .unwrap();
+    let s = ok(&d, &["teval", "a.txt", "0.85"]);
+    assert!(s.starts_with("0.5 = a.txt(0.85)"), "{s}");
+    std::fs::write(d.join("h.txt"), "#range:=hsv\n0 0.9 1 1\n1 0.9 1 1\n").unwrap();
+    let s = ok(&d, &["teval", "h.txt", "0.3"]);
+    assert!(s.starts_with("1 0 0.6 = h.txt(0.3)"), "{s}");
+    // The seed's levoy example, reading the file from stdin.
+    let mut c = rendr()
+        .current_dir(&d)
+        .args([
+            "levoy", "-i", "-", "-mm", "0", "1", "-gm", "1", "-o", "lev.nrrd",
+        ])
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    c.stdin
+        .take()
+        .unwrap()
+        .write_all(b"0.3 1 0.5\n0.7 0.3 1.3\n")
+        .unwrap();
+    assert!(c.wait().unwrap().success());
+    let n = rnd_std::nrrd::read(&d.join("lev.nrrd")).unwrap();
+    assert_eq!(n.sizes(), &[256, 256]);
+    assert_eq!(n.header.axis_maxs.as_ref().unwrap(), &vec![1.0, 1.0]);
+    let v = n.data.to_f64();
+    // Cell (i, j): value (i+0.5)/256, |g| (j+0.5)/256; at value 0.3 and the largest |g|
+    // the first contour gives ~0.5 and the second nothing (|0.3-0.7| > 0.3 |g|).
+    let i = (0.3f64 * 256.0) as usize;
+    let at = v[i + 256 * 255];
+    assert!((at - 0.5).abs() < 0.01, "{at}");
+    // LUT picture: lgen -oi writes a PNG len x h.
+    ok(
+        &d,
+        &[
+            "lgen", "-i", "x", "a.txt", "-mm", "0", "1", "-l", "64", "-h", "10", "-o", "l.nrrd",
+            "-oi", "l.png",
+        ],
+    );
+    let png = std::fs::read(d.join("l.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 64);
+    assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 10);
+}
+
+#[test]
+fn info_on_real_ct() {
+    let Some(sh) = rnd_tests::shared("info_on_real_ct") else {
+        return;
+    };
+    let d = rnd_tests::tmpdir("info-ct");
+    let ct = sh.join("volumes/imageio-stent-ct.nrrd");
+    let s = ok(&d, &["info", ct.to_str().unwrap()]);
+    assert!(
+        s.contains("128 by 128 by 256 volume with type short voxels"),
+        "{s}"
+    );
+    assert!(s.contains(" 1 1 1 (average 1)"), "{s}");
+    assert!(s.contains("no spacing recorded"), "{s}");
+    assert!(
+        s.contains("63.5 63.5 127.5\t= ItoW(63.5 63.5 127.5)"),
+        "{s}"
+    );
+}

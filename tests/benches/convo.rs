@@ -5,7 +5,7 @@
 use divan::{black_box, Bencher};
 use rnd_core::affine::Affine4;
 use rnd_core::convo::Convo;
-use rnd_core::kernel::{Bspln2, Bspln3, BoxK, C4Hexic, Ctmr, Kernel, Tent};
+use rnd_core::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, Tent};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
 
@@ -28,24 +28,27 @@ fn volume<V: Voxel>(conv: impl Fn(f32) -> V) -> Vec<V> {
 /// Points along a diagonal ray, 0.1 voxel apart (consecutive samples share
 /// neighbourhoods, as in rendering).
 fn ray_points() -> Vec<[f64; 3]> {
-    (0..SAMPLES).map(|k| {
-        let t = 8.0 + k as f64 * 0.1 * 0.577;
-        [t, 10.0 + t * 0.5, 12.0 + t * 0.25]
-    }).collect()
+    (0..SAMPLES)
+        .map(|k| {
+            let t = 8.0 + k as f64 * 0.1 * 0.577;
+            [t, 10.0 + t * 0.5, 12.0 + t * 0.25]
+        })
+        .collect()
 }
 
 fn run<V: Voxel, K: Kernel<S>, const S: usize>(b: Bencher, data: &[V], grad: bool) {
     let vol = Volume::new(data, [N, N, N], Affine4::IDENTITY).unwrap();
     let pts = ray_points();
-    b.counter(divan::counter::ItemsCount::new(SAMPLES)).bench_local(|| {
-        let mut c = Convo::<V, K, S>::new(vol);
-        let mut acc = 0.0f32;
-        for p in &pts {
-            let s = c.eval_index(black_box(*p), grad);
-            acc += s.value + s.grad_i[0];
-        }
-        acc
-    });
+    b.counter(divan::counter::ItemsCount::new(SAMPLES))
+        .bench_local(|| {
+            let mut c = Convo::<V, K, S>::new(vol);
+            let mut acc = 0.0f32;
+            for p in &pts {
+                let s = c.eval_index(black_box(*p), grad);
+                acc += s.value + s.grad_i[0];
+            }
+            acc
+        });
 }
 
 macro_rules! kernel_benches {

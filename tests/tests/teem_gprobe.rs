@@ -21,7 +21,10 @@ mod rand_like {
     pub struct Lcg(pub u64);
     impl Lcg {
         pub fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (self.0 >> 11) as f64 / (1u64 << 53) as f64
         }
     }
@@ -32,7 +35,16 @@ impl ConvoTask for Many {
     type Output = Vec<ConvoSample>;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Self::Output {
         let mut c = Convo::<V, K, S>::new(vol);
-        self.0.iter().map(|&p| if self.1 { c.eval_index(p, true) } else { c.eval_world(p, true) }).collect()
+        self.0
+            .iter()
+            .map(|&p| {
+                if self.1 {
+                    c.eval_index(p, true)
+                } else {
+                    c.eval_world(p, true)
+                }
+            })
+            .collect()
     }
 }
 
@@ -41,11 +53,20 @@ fn gprobe(vol: &Path, pts: &Path, q: &str, k: &str, index: bool, out: &Path) -> 
     let o = Command::new("teem-gprobe")
         .args(["-i", vol.to_str().unwrap(), "-k", "scalar", "-q", q])
         .args(["-k00", &teem_k(k), "-k11", &format!("{k}d"), "-k22", "zero"])
-        .args(["-pi", pts.to_str().unwrap(), "-psi", if index { "true" } else { "false" }])
+        .args([
+            "-pi",
+            pts.to_str().unwrap(),
+            "-psi",
+            if index { "true" } else { "false" },
+        ])
         .args(["-o", out.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(o.status.success(), "gprobe: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "gprobe: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     nrrd::read(out).unwrap().data.to_f64()
 }
 
@@ -54,21 +75,47 @@ fn check(name: &str, file: &Path, pts: Vec<[f64; 3]>, index: bool, dir: &Path) {
     let (lo, hi) = vol.min_max();
     let scale = hi.abs().max(lo.abs()).max(1e-12);
     let ptxt = dir.join(format!("{name}-pts.txt"));
-    let lines: Vec<String> = pts.iter().map(|p| format!("{} {} {}", p[0], p[1], p[2])).collect();
+    let lines: Vec<String> = pts
+        .iter()
+        .map(|p| format!("{} {} {}", p[0], p[1], p[2]))
+        .collect();
     std::fs::write(&ptxt, lines.join("\n") + "\n").unwrap();
-    for k in [KernelName::Tent, KernelName::Bspln3, KernelName::Ctmr, KernelName::C4hexic] {
+    for k in [
+        KernelName::Tent,
+        KernelName::Bspln3,
+        KernelName::Ctmr,
+        KernelName::C4hexic,
+    ] {
         let ours = dispatch(vol.view(), k, Many(pts.clone(), index));
         let v = gprobe(file, &ptxt, "v", k.as_str(), index, &dir.join("v.nrrd"));
         let gv = gprobe(file, &ptxt, "gv", k.as_str(), index, &dir.join("gv.nrrd"));
         assert_eq!(v.len(), pts.len());
-        let gscale = ours.iter().map(|s| s.grad_w.iter().fold(0.0f64, |m, &g| m.max((g as f64).abs()))).fold(0.0, f64::max).max(1e-12);
+        let gscale = ours
+            .iter()
+            .map(|s| {
+                s.grad_w
+                    .iter()
+                    .fold(0.0f64, |m, &g| m.max((g as f64).abs()))
+            })
+            .fold(0.0, f64::max)
+            .max(1e-12);
         for (i, s) in ours.iter().enumerate() {
             assert!(s.inside, "{name}: point {i} {:?} should be inside", pts[i]);
-            assert!((s.value as f64 - v[i]).abs() <= 1e-5 * scale, "{name} {k} point {i}: ours {} gage {}", s.value, v[i]);
+            assert!(
+                (s.value as f64 - v[i]).abs() <= 1e-5 * scale,
+                "{name} {k} point {i}: ours {} gage {}",
+                s.value,
+                v[i]
+            );
             for c in 0..3 {
                 let g = gv[3 * i + c];
                 // Index-space probing: gage's gradient is then per index unit too.
-                assert!((s.grad_w[c] as f64 - g).abs() <= 1e-5 * gscale + 1e-4 * g.abs(), "{name} {k} point {i} grad[{c}]: ours {:?} gage {:?}", s.grad_w, &gv[3 * i..3 * i + 3]);
+                assert!(
+                    (s.grad_w[c] as f64 - g).abs() <= 1e-5 * gscale + 1e-4 * g.abs(),
+                    "{name} {k} point {i} grad[{c}]: ours {:?} gage {:?}",
+                    s.grad_w,
+                    &gv[3 * i..3 * i + 3]
+                );
             }
         }
     }
@@ -82,17 +129,39 @@ fn convolution_agrees_with_gprobe() {
     let dir = rnd_tests::tmpdir("gprobe");
     let mut rng = Lcg(12345);
     // 1. A rotated, sheared float volume from sdg (world-space probing).
-    let grid = Grid { sizes: [30, 34, 38], lengths: [3.0, 3.5, 4.0], shear: [0.1, -0.2, 0.15], rot: [0.5, 0.6, -0.3], centre: [0.1, -0.1, 0.3] };
+    let grid = Grid {
+        sizes: [30, 34, 38],
+        lengths: [3.0, 3.5, 4.0],
+        shear: [0.1, -0.2, 0.15],
+        rot: [0.5, 0.6, -0.3],
+        centre: [0.1, -0.1, 0.3],
+    };
     let (vals, itow) = sdg::generate(12, &grid).unwrap();
-    let mut n = Nrrd::new(grid.sizes.to_vec(), Data::F32(vals.iter().map(|&v| v as f32).collect())).unwrap();
+    let mut n = Nrrd::new(
+        grid.sizes.to_vec(),
+        Data::F32(vals.iter().map(|&v| v as f32).collect()),
+    )
+    .unwrap();
     n.header.space = Some("left-posterior-superior".into());
     n.header.space_directions = Some((0..3).map(|c| Some(itow.column3(c).to_vec())).collect());
     n.header.space_origin = Some(itow.column3(3).to_vec());
     n.header.centerings = Some(vec![Centering::Cell; 3]);
     let f = dir.join("ml.nrrd");
-    nrrd::write(&n, &f, WriteOptions { encoding: Encoding::Gzip, ..Default::default() }).unwrap();
+    nrrd::write(
+        &n,
+        &f,
+        WriteOptions {
+            encoding: Encoding::Gzip,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let pts: Vec<[f64; 3]> = (0..40)
-        .map(|_| itow.point(std::array::from_fn(|a| 3.0 + rng.next() * (grid.sizes[a] as f64 - 7.0))))
+        .map(|_| {
+            itow.point(std::array::from_fn(|a| {
+                3.0 + rng.next() * (grid.sizes[a] as f64 - 7.0)
+            }))
+        })
         .collect();
     check("sdg-ml", &f, pts, false, &dir);
     // 2. The real CT volume (no spacing recorded: index = world; probe in index space).
@@ -101,11 +170,23 @@ fn convolution_agrees_with_gprobe() {
         // give it identity space directions in a copy (written by rendr, read by Teem).
         let mut n = nrrd::read(&sh.join("volumes/imageio-stent-ct.nrrd")).unwrap();
         n.header.space = Some("left-posterior-superior".into());
-        n.header.space_directions = Some((0..3).map(|a| Some((0..3).map(|c| f64::from(u8::from(a == c))).collect())).collect());
+        n.header.space_directions = Some(
+            (0..3)
+                .map(|a| Some((0..3).map(|c| f64::from(u8::from(a == c))).collect()))
+                .collect(),
+        );
         n.header.space_origin = Some(vec![0.0; 3]);
         n.header.centerings = Some(vec![Centering::Cell; 3]);
         let ct = dir.join("ct.nrrd");
-        nrrd::write(&n, &ct, WriteOptions { encoding: Encoding::Gzip, ..Default::default() }).unwrap();
+        nrrd::write(
+            &n,
+            &ct,
+            WriteOptions {
+                encoding: Encoding::Gzip,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let sizes = [128.0, 128.0, 256.0];
         let pts: Vec<[f64; 3]> = (0..40)
             .map(|_| std::array::from_fn(|a| 3.0 + rng.next() * (sizes[a] - 7.0)))
