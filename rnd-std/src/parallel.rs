@@ -59,40 +59,30 @@ pub fn render(
                     let _ = e.flush();
                 }
             };
-            let bands = out.chunks_mut(w * ch * BAND).enumerate();
-            if self.threads <= 1 {
+            // Bands of rows are handed out from one queue; with one thread the calling
+            // thread drains it alone.
+            let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
+            let work = || {
                 let mut convo = Convo::<V, K, S>::new(vol);
-                for (b, chunk) in bands {
-                    let r0 = (b * BAND) as u32;
-                    let r1 = ((b + 1) * BAND).min(h) as u32;
+                loop {
+                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                    let Some((b, chunk)) = next else { break };
+                    let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
                     spec.render_rows(
                         &mut convo,
-                        r0..r1,
+                        rows,
                         chunk,
                         clock_ref.map(|c| c as &dyn Fn() -> f64),
                     );
-                    report(b + 1);
+                    report(done.fetch_add(1, Ordering::Relaxed) + 1);
                 }
+            };
+            if self.threads <= 1 {
+                work();
             } else {
-                let queue = Mutex::new(bands);
                 std::thread::scope(|s| {
                     for _ in 0..self.threads {
-                        s.spawn(|| {
-                            let mut convo = Convo::<V, K, S>::new(vol);
-                            loop {
-                                let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                                let Some((b, chunk)) = next else { break };
-                                let r0 = (b * BAND) as u32;
-                                let r1 = ((b + 1) * BAND).min(h) as u32;
-                                spec.render_rows(
-                                    &mut convo,
-                                    r0..r1,
-                                    chunk,
-                                    clock_ref.map(|c| c as &dyn Fn() -> f64),
-                                );
-                                report(done.fetch_add(1, Ordering::Relaxed) + 1);
-                            }
-                        });
+                        s.spawn(work);
                     }
                 });
             }

@@ -224,3 +224,55 @@ fn real_volumes_load() {
     assert_eq!(water.sizes, [46, 46, 78]);
     assert_eq!(water.type_name(), "real");
 }
+
+/// Threads 1, 2 and 7 give identical bytes for every valid probe/blend pair.
+#[test]
+fn threads_give_identical_images() {
+    use rnd_core::affine::Affine4;
+    use rnd_core::light::Light;
+    use rnd_core::render::AnyVolume;
+    use rnd_core::sdg::Grid;
+    let grid = Grid {
+        sizes: [24, 26, 28],
+        lengths: [4.0; 3],
+        shear: [0.0; 3],
+        rot: [0.1, 0.2, 0.0],
+        centre: [0.0; 3],
+    };
+    let (vals, itow): (Vec<f64>, Affine4) = rnd_core::sdg::generate(2, &grid).unwrap();
+    let data: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
+    let vol = Volume::new(&data, grid.sizes, itow).unwrap();
+    let atxf = rnd_core::txf::Txf::new(
+        rnd_core::txf::TxfSpace::Alpha,
+        &[&[0.0, 0.0], &[0.8, 0.0], &[0.9, 1.0]],
+    )
+    .unwrap();
+    let lut = Lut::generate(None, Some(&atxf), false, false, 256, 0.0, 1.0).unwrap();
+    let lights = [Light::new([1.0, 0.5, 0.2], [1.0, 1.0, 0.0], false).unwrap()];
+    let mut p = cube_params();
+    p.camera.size = [37, 23];
+    p.plane_sep = 0.05;
+    p.time = false;
+    for probe in Probe::ALL {
+        for blend in Blend::ALL {
+            if blend == Blend::Over && !probe.is_colour() {
+                continue;
+            }
+            p.probe = probe;
+            p.blend = blend;
+            let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
+            let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false);
+            for n in [2, 7] {
+                let many = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false);
+                let same = one
+                    .iter()
+                    .zip(&many)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(
+                    same && one.len() == many.len(),
+                    "{probe}/{blend} differs with {n} threads"
+                );
+            }
+        }
+    }
+}
