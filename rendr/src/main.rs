@@ -26,6 +26,12 @@ fn list_commands() -> String {
 }
 
 fn main() -> ExitCode {
+    // Ctrl-C: remove any output still being written, then stop (status 130).
+    let _ = ctrlc::set_handler(|| {
+        rnd_std::files::remove_temp_files();
+        eprintln!("\nrendr: interrupted");
+        std::process::exit(130);
+    });
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let Some(name) = argv.first() else {
         print!("{}", list_commands());

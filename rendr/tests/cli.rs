@@ -1222,3 +1222,47 @@ fn info_on_real_ct() {
         "{s}"
     );
 }
+
+/// Ctrl-C during `go` stops it with status 130 and leaves no output or temporary file.
+#[test]
+fn interrupt_leaves_nothing() {
+    let d = rnd_tests::tmpdir("sigint");
+    seed_cube(&d);
+    let mut child = rendr()
+        .current_dir(&d)
+        .args([
+            "go",
+            "@cube-cam.txt",
+            "-i",
+            "cube.nrrd",
+            "-k",
+            "c4hexic",
+            "-p",
+            "gv",
+            "-s",
+            "0.001",
+            "-sz",
+            "1200",
+            "1200",
+            "-nt",
+            "1",
+            "-o",
+            "big.nrrd",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    let names: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains("big.nrrd")), "{names:?}");
+}

@@ -11,10 +11,9 @@ use rnd_core::txf::{hsv_to_rgb, Levoy, Lut, Txf, TxfSpace};
 use crate::nrrd::{self, Centering, Nrrd};
 use crate::{Error, Result};
 
-/// Reads `path` as a NRRD or text array, requiring 2 dimensions (a 1-D array counts as
-/// one column).
-fn read_2d(path: &Path) -> Result<(Nrrd, usize, usize)> {
-    let n = nrrd::read(path)?;
+/// Requires a 2-D array (a 1-D array counts as one column); returns it with its column
+/// and row counts.
+fn as_2d(path: &Path, n: Nrrd) -> Result<(Nrrd, usize, usize)> {
     let (c, r) = match n.sizes() {
         [c, r] => (*c, *r),
         [c] => (1, *c),
@@ -46,7 +45,12 @@ fn rows(n: &Nrrd, c: usize) -> Vec<Vec<f64>> {
 /// Loads a control-point transfer function (SPEC §3.3): `#space:=` (or `#range:=`) rgb,
 /// hsv or alpha; 4 or 2 columns; rows sorted by position.
 pub fn load_txf(path: &Path) -> Result<Txf> {
-    let (n, c, _) = read_2d(path)?;
+    txf_from_nrrd(path, nrrd::read(path)?)
+}
+
+/// [`load_txf`] on an array already read (`path` names it in errors).
+pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
+    let (n, c, _) = as_2d(path, n)?;
     let space = space_of(path, &n)?.ok_or_else(|| {
         Error::at(
             path,
@@ -68,7 +72,11 @@ pub fn load_txf(path: &Path) -> Result<Txf> {
 /// Loads a LUT (SPEC §3.4): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
 /// centring is given).
 pub fn load_lut(path: &Path) -> Result<Lut> {
-    let n = nrrd::read(path)?;
+    lut_from_nrrd(path, nrrd::read(path)?)
+}
+
+/// [`load_lut`] on an array already read.
+pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
     let s = n.sizes();
     if s.len() != 2 {
         return Err(Error::at(
@@ -114,7 +122,12 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
 
 /// Loads Levoy iso-contours (SPEC §3.5): 3 columns `v r a` per line.
 pub fn load_levoy(path: &Path) -> Result<Levoy> {
-    let (n, c, _) = read_2d(path)?;
+    levoy_from_nrrd(path, nrrd::read(path)?)
+}
+
+/// [`load_levoy`] on an array already read.
+pub fn levoy_from_nrrd(path: &Path, n: Nrrd) -> Result<Levoy> {
+    let (n, c, _) = as_2d(path, n)?;
     if c != 3 {
         return Err(Error::at(
             path,
@@ -131,7 +144,12 @@ pub fn load_levoy(path: &Path) -> Result<Levoy> {
 /// Loads lights (SPEC §3.6): `#space:=rgb|hsv` (rgb when absent), 7 columns
 /// `c0 c1 c2 d0 d1 d2 vsp`.
 pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
-    let (n, c, _) = read_2d(path)?;
+    lights_from_nrrd(path, nrrd::read(path)?)
+}
+
+/// [`load_lights`] on an array already read.
+pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
+    let (n, c, _) = as_2d(path, n)?;
     let space = space_of(path, &n)?.unwrap_or(TxfSpace::Rgb);
     if space == TxfSpace::Alpha {
         return Err(Error::at(

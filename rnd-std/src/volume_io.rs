@@ -115,15 +115,25 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
             )));
         }
         let d: Vec<[f64; 3]> = (0..3)
-            .map(|a| {
-                dirs[a + axis_off]
-                    .as_ref()
-                    .map(|v| [v[0], v[1], v[2]])
-                    .ok_or_else(|| Error::msg(format!("space directions: axis {a} is \"none\"")))
+            .map(|a| match dirs[a + axis_off].as_deref() {
+                Some(&[x, y, z]) => Ok([x, y, z]),
+                Some(v) => Err(Error::msg(format!(
+                    "space directions: axis {a} vector has {} components, need 3",
+                    v.len()
+                ))),
+                None => Err(Error::msg(format!(
+                    "space directions: axis {a} is \"none\""
+                ))),
             })
             .collect::<Result<_>>()?;
-        let o = match &h.space_origin {
-            Some(o) => [o[0], o[1], o[2]],
+        let o = match h.space_origin.as_deref() {
+            Some(&[x, y, z]) => [x, y, z],
+            Some(o) => {
+                return Err(Error::msg(format!(
+                    "space origin has {} components, need 3",
+                    o.len()
+                )))
+            }
             None => {
                 notes.push("no space origin: using (0,0,0)".to_string());
                 [0.0; 3]

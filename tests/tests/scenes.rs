@@ -171,7 +171,6 @@ fn opacity_correction_makes_step_size_irrelevant() {
     assert!(fine.chunks(4).filter(|p| p[3] > 0.5).count() > 100);
 }
 
-struct Brightest;
 fn argmax(img: &[f32], w: u32) -> (u32, u32) {
     let (i, _) = img
         .iter()
@@ -197,7 +196,6 @@ fn project(c: &Camera, p: [f64; 3]) -> (f64, f64) {
 /// is the image centre.
 #[test]
 fn impulse_lands_where_projected() {
-    let _ = Brightest;
     let g = grid([20, 24, 22], [0.3, -0.2, 0.1]);
     let (data, itow) = make(8, &g);
     let vol = Volume::new(&data, g.sizes, itow).unwrap();

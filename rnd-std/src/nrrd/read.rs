@@ -47,6 +47,11 @@ pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
                 } else {
                     dir.join(f)
                 };
+                let meta = std::fs::metadata(&p)
+                    .map_err(|e| Error::io(&p, "can't read detached data", e))?;
+                if !meta.is_file() {
+                    return Err(Error::at(&p, "detached data is not a regular file"));
+                }
                 let b =
                     std::fs::read(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
                 all.push(b);

@@ -1,0 +1,76 @@
+//! Fuzzes a tiny render: camera, LUT, probe, blend, kernel and parameters come from the
+//! input. Validation may refuse them; what it accepts must render without panicking and
+//! give finite output unless NaN was asked for (outside value).
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use rnd_core::affine::Affine4;
+use rnd_core::blend::Blend;
+use rnd_core::camera::CameraSpec;
+use rnd_core::kernel::KernelName;
+use rnd_core::light::{Light, Phong};
+use rnd_core::probe::Probe;
+use rnd_core::render::{render, AnyVolume, RenderParams, RenderSpec};
+use rnd_core::txf::{Levoy, Lut};
+use rnd_core::volume::Volume;
+
+struct Bytes<'a>(&'a [u8]);
+impl Bytes<'_> {
+    fn u8(&mut self) -> u8 {
+        let (b, rest) = self.0.split_first().map(|(b, r)| (*b, r)).unwrap_or((0, &[]));
+        self.0 = rest;
+        b
+    }
+    fn f64(&mut self) -> f64 {
+        let mut a = [0u8; 8];
+        for x in &mut a {
+            *x = self.u8();
+        }
+        let v = f64::from_le_bytes(a);
+        // Mostly moderate numbers, sometimes anything (NaN, inf, huge).
+        if self.u8() % 8 == 0 { v } else { (v.to_bits() % 20001) as f64 / 1000.0 - 10.0 }
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut b = Bytes(data);
+    let camera = CameraSpec {
+        fr: [b.f64(), b.f64(), b.f64()],
+        at: [b.f64(), b.f64(), b.f64()],
+        up: [b.f64(), b.f64(), b.f64()],
+        nc: b.f64(),
+        fc: b.f64(),
+        fov: b.f64() * 10.0,
+        size: [1 + (b.u8() % 6) as u32, 1 + (b.u8() % 6) as u32],
+        ortho: b.u8() % 2 == 0,
+    };
+    let mut p = RenderParams::new(camera);
+    p.plane_sep = b.f64().abs() / 10.0;
+    p.sample_once = b.u8() % 7 == 0;
+    p.probe = Probe::ALL[(b.u8() % 9) as usize];
+    p.blend = Blend::ALL[(b.u8() % 4) as usize];
+    p.outside = b.f64() as f32;
+    p.unit_step = b.f64();
+    p.alpha_near1 = b.f64() as f32;
+    p.phong = Phong { ka: b.f64() as f32, kd: b.f64() as f32, ks: b.f64() as f32, p: b.f64() as f32 };
+    p.dcn = [b.f64() as f32; 3];
+    p.dcf = [b.f64() as f32; 3];
+    p.time = false;
+    let lut = Lut::new(b.f64(), b.f64(), (0..4).map(|_| [b.f64() as f32, 0.5, 0.2, b.f64() as f32]).collect()).ok();
+    let lev = Levoy::new(vec![[b.f64() as f32, b.f64() as f32, b.f64() as f32]]).ok();
+    let lights: Vec<Light> = Light::new([1.0, 0.9, 0.8], [b.f64(), b.f64(), b.f64()], b.u8() % 2 == 0).into_iter().collect();
+    let kernel = KernelName::ALL[(b.u8() % 7) as usize];
+    // Don't let the fuzzer ask for millions of samples per ray.
+    if p.plane_sep > 0.0 && (p.camera.fc - p.camera.nc) / p.plane_sep > 2000.0 {
+        return;
+    }
+    let data: Vec<f32> = (0..6 * 7 * 8).map(|i| ((i * 37) % 11) as f32 / 10.0).collect();
+    let itow = Affine4::from_columns([0.5, 0.0, 0.1], [0.0, 0.4, 0.0], [0.0, 0.1, 0.3], [-1.0, -1.0, -1.0]);
+    let vol = Volume::new(&data, [6, 7, 8], itow).unwrap();
+    let Ok(spec) = RenderSpec::new(p.clone(), lut.as_ref(), lev.as_ref(), &lights) else { return };
+    let img = render(&spec, AnyVolume::F32(vol), kernel);
+    assert_eq!(img.len(), (p.camera.size[0] * p.camera.size[1]) as usize * spec.channels);
+    if p.outside.is_finite() {
+        assert!(img.iter().all(|v| !v.is_nan()), "NaN output for {p:?}");
+    }
+});
