@@ -79,6 +79,25 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         self.eval_index(pos_i, grad)
     }
 
+    /// The first support index on each axis for index-space point `pos_i`, when the
+    /// whole support is inside the volume (the inside rule), else None.
+    #[inline(always)]
+    pub fn support_start(&self, pos_i: [f64; 3]) -> Option<[i64; 3]> {
+        let mut n = [0i64; 3];
+        for a in 0..3 {
+            let x = pos_i[a];
+            if !(x > -INDEX_LIMIT && x < INDEX_LIMIT) {
+                return None;
+            }
+            let lo = K::base(x).0 + K::LO as i64;
+            if lo < 0 || lo + S as i64 > self.sizes[a] {
+                return None;
+            }
+            n[a] = lo;
+        }
+        Some(n)
+    }
+
     /// Convolution at index-space point `pos_i`.
     #[inline]
     pub fn eval_index(&mut self, pos_i: [f64; 3], grad: bool) -> ConvoSample {

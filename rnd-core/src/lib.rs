@@ -47,6 +47,7 @@ pub mod math;
 pub mod probe;
 pub mod render;
 pub mod sdg;
+pub mod skip;
 pub mod txf;
 pub mod volume;
 pub mod voxel;

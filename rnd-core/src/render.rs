@@ -14,6 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
+use crate::skip::SkipGrid;
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -45,6 +46,9 @@ pub struct RenderParams {
     pub dcf: [f32; 3],
     /// Append a per-ray time channel (ms).
     pub time: bool,
+    /// Skip the convolution where the LUT opacity is zero for every reachable value
+    /// (`over` only; exact).
+    pub skip_empty: bool,
 }
 
 impl RenderParams {
@@ -63,6 +67,7 @@ impl RenderParams {
             dcn: [1.0; 3],
             dcf: [1.0; 3],
             time: false,
+            skip_empty: true,
         }
     }
 }
@@ -165,6 +170,18 @@ impl<'a> RenderSpec<'a> {
     /// Image width and height.
     pub fn size(&self) -> [u32; 2] {
         self.camera.spec.size
+    }
+
+    /// The empty-space-skipping grid for `vol`, when it applies (an `over` render of a
+    /// colour probe with `params.skip_empty`).
+    pub fn skip_grid<V: Voxel>(&self, vol: &Volume<'_, V>, kernel: KernelName) -> Option<SkipGrid> {
+        let p = &self.params;
+        match self.lut {
+            Some(lut) if p.skip_empty && p.blend == Blend::Over && p.probe.is_colour() => {
+                Some(SkipGrid::new(vol, kernel, lut))
+            }
+            _ => None,
+        }
     }
 
     /// Whether the gradient is computed at each sample.
@@ -305,7 +322,28 @@ impl RenderSpec<'_> {
         out: &mut [f32],
         mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
     ) {
+        self.cast_skip(convo, None, hi, vi, out, trace.take());
+    }
+
+    /// [`RenderSpec::cast`] with optional empty-space skipping (`over` only; ignored
+    /// otherwise): samples in blocks of `skip` marked empty are counted as inside with
+    /// zero opacity, without convolving. The result is identical to the plain path.
+    #[inline]
+    pub fn cast_skip<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        convo: &mut Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+        mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
+    ) {
         let p = &self.params;
+        let skip = if p.blend == Blend::Over && p.probe.is_colour() {
+            skip
+        } else {
+            None
+        };
         let g = self.ray_geom(hi, vi);
         let wtoi = *convo.volume().wtoi();
         let start_i = wtoi.point(g.start_w);
@@ -325,6 +363,19 @@ impl RenderSpec<'_> {
             }
             let pos_w = at(&g.start_w, &g.step_w);
             let pos_i = at(&start_i, &step_i);
+            if let Some(sk) = skip {
+                if let Some(lo) = convo.support_start(pos_i) {
+                    if sk.empty_at(lo) {
+                        // Inside, opacity 0: blending it changes nothing but the count.
+                        acc.add(&[0.0; 4]);
+                        if self.once {
+                            break;
+                        }
+                        k += 1;
+                        continue;
+                    }
+                }
+            }
             let cs = if needs_convo {
                 convo.eval_index(pos_i, self.need_grad)
             } else {
@@ -366,6 +417,7 @@ impl RenderSpec<'_> {
     pub fn render_rows<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,
         convo: &mut Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
         rows: core::ops::Range<u32>,
         out: &mut [f32],
         clock: Option<&dyn Fn() -> f64>,
@@ -378,7 +430,7 @@ impl RenderSpec<'_> {
             for hi in 0..w {
                 let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
                 let t0 = clock.map(|c| c());
-                self.cast(convo, hi as u32, vi, &mut px[..plen], None);
+                self.cast_skip(convo, skip, hi as u32, vi, &mut px[..plen], None);
                 if let (Some(c), Some(t0)) = (clock, t0) {
                     px[plen] = (c() - t0) as f32;
                 }
@@ -439,8 +491,10 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
         fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
             let [w, h] = self.0.size();
             let mut out = alloc::vec![0.0f32; w as usize * h as usize * self.0.channels];
+            let skip = self.0.skip_grid(&vol, K::NAME);
             let mut convo = Convo::<V, K, S>::new(vol);
-            self.0.render_rows(&mut convo, 0..h, &mut out, None);
+            self.0
+                .render_rows(&mut convo, skip.as_ref(), 0..h, &mut out, None);
             out
         }
     }

@@ -61,6 +61,7 @@ pub fn render(
             };
             // Bands of rows are handed out from one queue; with one thread the calling
             // thread drains it alone.
+            let skip = spec.skip_grid(&vol, K::NAME);
             let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
             let work = || {
                 let mut convo = Convo::<V, K, S>::new(vol);
@@ -70,6 +71,7 @@ pub fn render(
                     let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
                     spec.render_rows(
                         &mut convo,
+                        skip.as_ref(),
                         rows,
                         chunk,
                         clock_ref.map(|c| c as &dyn Fn() -> f64),

@@ -501,3 +501,42 @@ fn blinn_phong_on_a_sphere() {
         "diffuse {centre:?} vs {want}"
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config { cases: 24, .. Default::default() })]
+
+    /// Empty-space skipping gives exactly the plain path's image on random scenes.
+    #[test]
+    fn empty_space_skipping_is_exact(
+        which in proptest::sample::select(vec![2u32, 9, 10, 12, 13, 14]),
+        ki in 1usize..7,
+        lo in 0.0f64..0.9,
+        width in 0.01f64..0.5,
+        fr in proptest::array::uniform3(-6.0f64..6.0),
+        lit in proptest::bool::ANY,
+        short in proptest::bool::ANY,
+    ) {
+        proptest::prop_assume!(fr.iter().map(|x| x * x).sum::<f64>() > 9.0);
+        let g = Grid { sizes: [23, 19, 21], lengths: [2.5; 3], shear: [0.1, 0.0, -0.1], rot: [0.2, 0.0, 0.3], centre: [0.0; 3] };
+        let (vals, itow) = sdg::generate(which, &g).unwrap();
+        let f: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
+        let s: Vec<i16> = vals.iter().map(|&v| (v * 1000.0).round() as i16).collect();
+        let scale = if short { 1000.0 } else { 1.0 };
+        let vol = if short { AnyVolume::I16(Volume::new(&s, g.sizes, itow).unwrap()) } else { AnyVolume::F32(Volume::new(&f, g.sizes, itow).unwrap()) };
+        // Opacity only in [lo, lo + width] (in function units).
+        let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + width / 2.0) * scale, 0.7], &[(lo + width) * scale, 0.0]]).unwrap();
+        let lut = Lut::generate(None, Some(&a), false, false, 1000, -2.0 * scale, 2.0 * scale).unwrap();
+        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+        let mut p = RenderParams::new(cam(fr, [0.0; 3], [0.0, 0.0, 1.0], -2.0, 2.0, [24, 18], false));
+        p.plane_sep = 0.02;
+        p.unit_step = 0.05;
+        p.probe = if lit { Probe::RgbaLit } else { Probe::Rgba };
+        p.blend = Blend::Over;
+        p.outside = f32::NAN;
+        let k = KernelName::ALL[ki];
+        let fast = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
+        p.skip_empty = false;
+        let plain = render(&RenderSpec::new(p, Some(&lut), None, &lights).unwrap(), vol, k);
+        proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which}");
+    }
+}

@@ -161,6 +161,13 @@ pub static SPEC: CmdSpec = CmdSpec {
             "bool",
             "show progress (only when stderr is a terminal)",
         ),
+        def(
+            &["ess"],
+            1,
+            "true",
+            "bool",
+            "empty-space skipping for over (exact; false = the plain path)",
+        ),
         opt(&["q"], 2, "min max", "quantization range for PNG output"),
         opt(
             &["o"],
@@ -252,6 +259,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     params.dcn = a.get_arr("dcn")?;
     params.dcf = a.get_arr("dcf")?;
     params.time = a.flag("t");
+    params.skip_empty = a.get("ess")?;
     let threads = match a.given("nt") {
         true => a.get::<usize>("nt")?,
         false => rnd_std::parallel::default_threads(),

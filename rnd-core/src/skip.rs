@@ -1,0 +1,100 @@
+//! Empty-space skipping for `over`: a coarse grid of blocks that records where the
+//! LUT opacity is zero for every value the convolution can reach, so the ray can skip
+//! the convolution there. Exact: a skipped sample would have had opacity 0, which adds
+//! nothing under `over` (its "inside" status, which decides outsideValue, is kept).
+
+use alloc::vec::Vec;
+
+use crate::kernel::KernelName;
+use crate::txf::Lut;
+use crate::volume::Volume;
+use crate::voxel::Voxel;
+
+/// Block edge length in voxels.
+const B: usize = 8;
+
+/// Which blocks of support-base indices give zero opacity everywhere.
+#[derive(Debug, Clone)]
+pub struct SkipGrid {
+    nb: [usize; 3],
+    empty: Vec<bool>,
+}
+
+/// Largest Σ|w| of one axis's weights over all fractional positions (sampled finely,
+/// plus a margin).
+fn abs_weight_sum(k: KernelName) -> f64 {
+    let s = k.support() as i32;
+    let lo = k.lo();
+    let mut best: f64 = 1.0;
+    for j in 0..=1000 {
+        let a = j as f64 / 1000.0 - if s % 2 == 1 { 0.5 } else { 0.0 };
+        let sum: f64 = (0..s).map(|i| k.eval(a - (lo + i) as f64, 0).abs()).sum();
+        best = best.max(sum);
+    }
+    best * 1.001
+}
+
+impl SkipGrid {
+    /// Builds the grid for `vol` reconstructed with `kernel` and opacities from `lut`.
+    pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &Lut) -> SkipGrid {
+        let sizes = vol.sizes();
+        let s = kernel.support();
+        let nb: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(B));
+        // Reachable values: v = Σ w_i v_i with Σ w_i = 1 and Σ |w_i| ≤ C (3-D product),
+        // so v ∈ [m − W(M − m), M + W(M − m)] with W = (C − 1)/2.
+        let c = abs_weight_sum(kernel);
+        let wneg = (c * c * c - 1.0) / 2.0;
+        // Prefix counts of non-zero-opacity LUT entries.
+        let e = lut.entries();
+        let mut nz = Vec::with_capacity(e.len() + 1);
+        nz.push(0u32);
+        for x in e {
+            let last = *nz.last().unwrap_or(&0);
+            nz.push(last + u32::from(x[3] != 0.0));
+        }
+        let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
+        let data = vol.data();
+        for bk in 0..nb[2] {
+            for bj in 0..nb[1] {
+                for bi in 0..nb[0] {
+                    let range = |b: usize, a: usize| (b * B)..((b + 1) * B + s - 1).min(sizes[a]);
+                    let (mut m, mut mx, mut nan) = (f32::INFINITY, f32::NEG_INFINITY, false);
+                    for k in range(bk, 2) {
+                        for j in range(bj, 1) {
+                            let row = sizes[0] * (j + sizes[1] * k);
+                            for i in range(bi, 0) {
+                                let v = data[row + i].to_f32();
+                                nan |= v.is_nan();
+                                m = m.min(v);
+                                mx = mx.max(v);
+                            }
+                        }
+                    }
+                    if nan || !(m <= mx) || !m.is_finite() || !mx.is_finite() {
+                        continue;
+                    }
+                    let (m, mx) = (m as f64, mx as f64);
+                    let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
+                    let lo = m - wneg * (mx - m) - margin;
+                    let hi = mx + wneg * (mx - m) + margin;
+                    let (i0, i1) = (lut.index(lo), lut.index(hi));
+                    empty[bi + nb[0] * (bj + nb[1] * bk)] = nz[i1 + 1] == nz[i0];
+                }
+            }
+        }
+        SkipGrid { nb, empty }
+    }
+
+    /// True when every convolution whose support starts at index `lo` (all three axes
+    /// inside the volume) has zero LUT opacity.
+    #[inline(always)]
+    pub fn empty_at(&self, lo: [i64; 3]) -> bool {
+        let b = [lo[0] as usize / B, lo[1] as usize / B, lo[2] as usize / B];
+        self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
+    }
+
+    /// Fraction of blocks marked empty.
+    pub fn empty_fraction(&self) -> f64 {
+        self.empty.iter().filter(|&&e| e).count() as f64 / self.empty.len().max(1) as f64
+    }
+}
