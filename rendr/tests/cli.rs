@@ -1266,3 +1266,61 @@ fn interrupt_leaves_nothing() {
         .collect();
     assert!(!names.iter().any(|n| n.contains("big.nrrd")), "{names:?}");
 }
+
+#[test]
+fn mgo_runs_many() {
+    let d = rnd_tests::tmpdir("mgo");
+    seed_cube(&d);
+    std::fs::write(
+        d.join("cmds.txt"),
+        "# two renderings of one volume\n\
+         rendr go @cube-cam.txt -i cube.nrrd -k tent -s 0.1 -p v -b max -o a.nrrd\n\
+         ./rendr go @cube-cam.txt -i cube.nrrd -k bspln3 -s 0.1 -p v -b max -sz 30 20 -o b.nrrd\n\
+         !!\n",
+    )
+    .unwrap();
+    let s = ok(&d, &["mgo", "-i", "cmds.txt"]);
+    assert_eq!(s.matches("================== running:").count(), 3, "{s}");
+    assert_eq!(s.matches("================== done").count(), 3);
+    let (sa, _) = read_floats(&d.join("a.nrrd"));
+    let (sb, _) = read_floats(&d.join("b.nrrd"));
+    assert_eq!(sa, vec![1, 300, 300]);
+    assert_eq!(sb, vec![1, 30, 20]);
+    // Same image as a single go.
+    ok(
+        &d,
+        &[
+            "go",
+            "@cube-cam.txt",
+            "-i",
+            "cube.nrrd",
+            "-k",
+            "tent",
+            "-s",
+            "0.1",
+            "-p",
+            "v",
+            "-b",
+            "max",
+            "-o",
+            "c.nrrd",
+        ],
+    );
+    assert_eq!(
+        read_floats(&d.join("a.nrrd")).1,
+        read_floats(&d.join("c.nrrd")).1
+    );
+    std::fs::write(d.join("bad.txt"), "rendr cam -fr 1 2 3\n").unwrap();
+    fails(
+        &d,
+        &["mgo", "-i", "bad.txt"],
+        "bad.txt line 1: not a \"rendr go ...\" command",
+        None,
+    );
+    std::fs::write(
+        d.join("bad2.txt"),
+        "rendr go @cube-cam.txt -i cube.nrrd -k tent -p rgba -o z.nrrd\n",
+    )
+    .unwrap();
+    fails(&d, &["mgo", "-i", "bad2.txt"], "line 1", Some("z.nrrd"));
+}

@@ -242,6 +242,34 @@ impl ConvoTask for Trace<'_, '_> {
 }
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
+    run_cached(a, &mut VolumeCache::default())
+}
+
+/// Volumes loaded so far, by file name (used by `mgo` to read each volume once).
+#[derive(Default)]
+pub struct VolumeCache {
+    vols: std::collections::HashMap<PathBuf, std::rc::Rc<rnd_std::volume_io::VolumeBuf>>,
+}
+
+impl VolumeCache {
+    /// The volume in `path`, loaded on first use.
+    pub fn get(
+        &mut self,
+        path: &Path,
+    ) -> anyhow::Result<std::rc::Rc<rnd_std::volume_io::VolumeBuf>> {
+        if let Some(v) = self.vols.get(path) {
+            return Ok(v.clone());
+        }
+        let v = std::rc::Rc::new(rnd_std::volume_io::load_volume(path)?);
+        if path.as_os_str() != "-" {
+            self.vols.insert(path.to_path_buf(), v.clone());
+        }
+        Ok(v)
+    }
+}
+
+/// `go` with volumes taken from (and added to) `cache`.
+pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
     let camera = super::cam::camera_spec(a)?;
     let kernel: KernelName = parse_named("k", &a.get_str("k").unwrap_or_default())?;
     let probe: Probe = parse_named("p", &a.get_str("p").unwrap_or_default())?;
@@ -310,7 +338,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         lev.as_ref(),
         lights.as_deref().unwrap_or(&[]),
     )?;
-    let vol = rnd_std::volume_io::load_volume(&input)?;
+    let vol = cache.get(&input)?;
     if debug {
         let [w, h] = spec.size();
         if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {

@@ -12,6 +12,7 @@ mod klist;
 mod levoy;
 mod lgen;
 mod m4ai;
+mod mgo;
 mod sdg;
 mod teval;
 
@@ -66,6 +67,11 @@ pub static COMMANDS: &[Command] = &[
         spec: &go::SPEC,
         aliases: &[],
         run: go::run,
+    },
+    Command {
+        spec: &mgo::SPEC,
+        aliases: &[],
+        run: mgo::run,
     },
     Command {
         spec: &klist::SPEC,
