@@ -23,6 +23,8 @@ pub const FUNCTIONS: &[&str] = &[
     "Marschner-Lobb on [-1,1]^3 (alpha 0.25, fM 6)",
     "sphere distance 1 - sqrt(x^2 + y^2 + z^2)",
     "slab: 1 where |z| < 0.5, else 0 (blocky, for clipping tests)",
+    "marker: Gaussian blobs 1 at the origin, 0.66 at +x 0.6, 0.33 at +z 0.6",
+    "10 (1 - sqrt(x^2 + y^2 + z^2)) (sphere distance, gradient magnitude 10)",
 ];
 
 /// Grid request (`sdg` options).
@@ -149,6 +151,15 @@ pub fn eval(which: u32, p: [f64; 3], idx: [usize; 3], sizes: [usize; 3]) -> f64 
                 0.0
             }
         }
+        15 => {
+            let blob = |c: [f64; 3]| {
+                let (a, b, e) = (x - c[0], y - c[1], z - c[2]);
+                let d2 = a * a + b * b + e * e;
+                math::exp(-d2 / (0.15 * 0.15))
+            };
+            blob([0.0; 3]) + 0.66 * blob([0.6, 0.0, 0.0]) + 0.33 * blob([0.0, 0.0, 0.6])
+        }
+        16 => 10.0 * (1.0 - math::sqrt(x * x + y * y + z * z)),
         _ => f64::NAN,
     }
 }

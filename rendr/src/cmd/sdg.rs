@@ -17,7 +17,8 @@ pub static SPEC: CmdSpec = CmdSpec {
            0: -z (zramp)   1: x^2+y^2-z (paraboloid)   2: cube exp(-(x^8+y^8+z^8)/6)\n  \
            3: x   4: y   5,6,7: i, j, k (index)   8: impulse at index (s0/2,s1/2,s2/2)\n  \
            9: -(x^2+y^2+z^2)   10: Cayley cubic   11: constant 1   12: Marschner-Lobb\n  \
-           13: sphere distance 1-|p|   14: slab, 1 where |z| < 0.5\n\
+           13: sphere distance 1-|p|   14: slab, 1 where |z| < 0.5\n  \
+           15: marker blobs (1 at origin, 0.66 at +x, 0.33 at +z)   16: 10 (1-|p|)\n\
            Short output (-t short) stores round(f * sval / fval) (-vs fval sval).",
     response_files: false,
     opts: &[
