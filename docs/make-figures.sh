@@ -7,7 +7,9 @@ set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 out=$(mkdir -p "${1:-$top/docs/figures}" && cd "${1:-$top/docs/figures}" && pwd)
 R=${RENDR:-}
-if [ -z "$R" ]; then
+if [ -n "$R" ]; then
+  R="$(cd "$(dirname "$R")" && pwd)/$(basename "$R")"
+else
   (cd "$top" && cargo build --release -q -p rendr)
   R="$top/target/release/rendr"
 fi

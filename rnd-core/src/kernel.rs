@@ -63,12 +63,12 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
     fn base(x: f64) -> (i64, f64) {
-        let n = if S % 2 == 0 {
-            crate::math::floor(x)
-        } else {
-            crate::math::floor(x + 0.5)
-        };
-        (n as i64, x - n)
+        // Callers keep |x| far below 2^52, where truncation toward zero plus a
+        // correction is an exact floor (and much cheaper than a general one).
+        let y = if S % 2 == 0 { x } else { x + 0.5 };
+        let t = y as i64;
+        let n = if (t as f64) > y { t - 1 } else { t };
+        (n, x - n as f64)
     }
 }
 
@@ -159,6 +159,14 @@ impl Kernel<2> for Tent {
     fn d2<T: Float>(_x: T) -> T {
         T::zero()
     }
+    #[inline(always)]
+    fn weights(a: f64) -> [f32; 2] {
+        [(1.0 - a) as f32, a as f32]
+    }
+    #[inline(always)]
+    fn weights_d1(_a: f64) -> [f32; 2] {
+        [-1.0, 1.0]
+    }
 }
 
 impl Kernel<3> for Bspln2 {
@@ -230,6 +238,29 @@ impl Kernel<4> for Bspln3 {
             T::zero()
         }
     }
+    // Closed forms of K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1).
+    #[inline(always)]
+    fn weights(a: f64) -> [f32; 4] {
+        const SIXTH: f64 = 1.0 / 6.0;
+        let (a2, a3) = (a * a, a * a * a);
+        let b = 1.0 - a;
+        [
+            (b * b * b * SIXTH) as f32,
+            ((3.0 * a3 - 6.0 * a2 + 4.0) * SIXTH) as f32,
+            ((-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * SIXTH) as f32,
+            (a3 * SIXTH) as f32,
+        ]
+    }
+    #[inline(always)]
+    fn weights_d1(a: f64) -> [f32; 4] {
+        let b = 1.0 - a;
+        [
+            (-b * b / 2.0) as f32,
+            (1.5 * a * a - 2.0 * a) as f32,
+            (-1.5 * a * a + a + 0.5) as f32,
+            (a * a / 2.0) as f32,
+        ]
+    }
 }
 
 impl Kernel<4> for Ctmr {
@@ -263,6 +294,27 @@ impl Kernel<4> for Ctmr {
         } else {
             T::zero()
         }
+    }
+    // Closed forms of K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1).
+    #[inline(always)]
+    fn weights(a: f64) -> [f32; 4] {
+        let (a2, a3) = (a * a, a * a * a);
+        [
+            ((-a3 + 2.0 * a2 - a) * 0.5) as f32,
+            ((3.0 * a3 - 5.0 * a2 + 2.0) * 0.5) as f32,
+            ((-3.0 * a3 + 4.0 * a2 + a) * 0.5) as f32,
+            ((a3 - a2) * 0.5) as f32,
+        ]
+    }
+    #[inline(always)]
+    fn weights_d1(a: f64) -> [f32; 4] {
+        let a2 = a * a;
+        [
+            ((-3.0 * a2 + 4.0 * a - 1.0) / 2.0) as f32,
+            ((9.0 * a2 - 10.0 * a) / 2.0) as f32,
+            ((-9.0 * a2 + 8.0 * a + 1.0) / 2.0) as f32,
+            ((3.0 * a2 - 2.0 * a) / 2.0) as f32,
+        ]
     }
 }
 
@@ -548,6 +600,37 @@ mod tests {
         for (a, b) in w.iter().zip(want) {
             assert!((a - b).abs() < 1e-6, "{w:?}");
         }
+    }
+
+    /// The closed-form weights of tent, bspln3 and ctmr equal the piecewise definitions.
+    #[test]
+    fn closed_form_weights_match_definition() {
+        fn generic<K: Kernel<S>, const S: usize>(a: f64, d: u32) -> [f32; S] {
+            core::array::from_fn(|i| {
+                let x = a - (K::LO + i as i32) as f64;
+                (if d == 0 { K::k(x) } else { K::d1(x) }) as f32
+            })
+        }
+        fn check<K: Kernel<S>, const S: usize>() {
+            for j in 0..1000 {
+                let a = j as f64 / 1000.0;
+                for (fast, slow) in [
+                    (K::weights(a), generic::<K, S>(a, 0)),
+                    (K::weights_d1(a), generic::<K, S>(a, 1)),
+                ] {
+                    for i in 0..S {
+                        assert!(
+                            (fast[i] - slow[i]).abs() < 2e-7,
+                            "{:?} a={a}: {fast:?} vs {slow:?}",
+                            K::NAME
+                        );
+                    }
+                }
+            }
+        }
+        check::<Tent, 2>();
+        check::<Bspln3, 4>();
+        check::<Ctmr, 4>();
     }
 
     #[test]
