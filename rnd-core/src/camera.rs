@@ -126,6 +126,11 @@ impl Camera {
                 spec.nc
             )));
         }
+        if !(fcv > ncv) {
+            return Err(cam_err(format!(
+                "-nc/-fc: near and far planes coincide in floating point at distance {d} from the eye"
+            )));
+        }
         let hght = 2.0 * d * math::tan(spec.fov.to_radians() / 2.0);
         let ar = spec.size[0] as f64 / spec.size[1] as f64;
         let wdth = ar * hght;

@@ -19,6 +19,9 @@ use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
+/// Most samples one ray may take ((fcv − ncv) / plane separation).
+pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
+
 /// Everything `go` is asked to do, before validation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderParams {
@@ -109,6 +112,15 @@ impl<'a> RenderSpec<'a> {
                 "-s: plane separation {} must be >= 0",
                 params.plane_sep
             )));
+        }
+        if !once {
+            let per_ray = (camera.fcv - camera.ncv) / params.plane_sep;
+            if !(per_ray <= MAX_SAMPLES_PER_RAY) {
+                return Err(rerr(format!(
+                    "-s: plane separation {} gives {per_ray:.3e} samples per ray (limit {MAX_SAMPLES_PER_RAY:e})",
+                    params.plane_sep
+                )));
+            }
         }
         if !(params.unit_step.is_finite() && params.unit_step > 0.0) {
             return Err(rerr(format!(
@@ -352,13 +364,18 @@ impl RenderSpec<'_> {
         let mut acc = Accum::new(p.blend, p.probe.length());
         let over = p.blend == Blend::Over;
         let fcv = self.camera.fcv;
+        // Planes beyond this count are past the far plane; the bound also ends rays whose
+        // positions stop changing in floating point (a camera very far away).
+        let kmax = ((fcv - self.camera.ncv) / p.plane_sep.max(f64::MIN_POSITIVE))
+            .min(MAX_SAMPLES_PER_RAY) as u32
+            + 1;
         let mut k: u32 = 0;
         loop {
             let kf = k as f64;
             let at =
                 |s: &[f64; 3], d: &[f64; 3]| [s[0] + kf * d[0], s[1] + kf * d[1], s[2] + kf * d[2]];
             let pos_v = at(&g.start_v, &g.step_v);
-            if k > 0 && -pos_v[2] > fcv {
+            if k > 0 && (-pos_v[2] > fcv || k > kmax) {
                 break;
             }
             let pos_w = at(&g.start_w, &g.step_w);

@@ -540,3 +540,39 @@ proptest::proptest! {
         proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which}");
     }
 }
+
+/// Fuzz regression (fuzz/corpus/render/regressions): a camera so far away that the ray's
+/// positions stop changing in floating point must still finish (it hung before), and
+/// absurd sample counts are refused up front.
+#[test]
+fn far_camera_terminates_and_sample_count_is_bounded() {
+    let g = grid([8, 8, 8], [0.0; 3]);
+    let (data, itow) = make(11, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    // At 1e15 the planes 2 apart are distinct, but steps of 0.01 are below the spacing
+    // of f64 there (0.125): the positions stall.
+    let mut p = RenderParams::new(cam(
+        [0.0, 0.0, 1e15],
+        [0.0; 3],
+        [0.0, 1.0, 0.0],
+        -1.0,
+        1.0,
+        [2, 2],
+        true,
+    ));
+    p.camera.fov = 1e-14;
+    p.plane_sep = 0.01;
+    p.probe = Probe::Inside;
+    p.blend = Blend::Sum;
+    let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
+    let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
+    assert!(img.iter().all(|v| v.is_finite()));
+    p.plane_sep = 1e-12;
+    let e = RenderSpec::new(p.clone(), None, None, &[]).unwrap_err();
+    assert!(e.msg.contains("samples per ray"), "{e}");
+    // At 1e17 the near and far planes themselves collapse: refused.
+    p.camera.fr = [0.0, 0.0, 1e17];
+    p.plane_sep = 0.01;
+    let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
+    assert!(e.msg.contains("coincide"), "{e}");
+}

@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# rendr vs Teem, same machine, same run: samples per second of teem-mrender and
+# rendr go (value/max and gradmag/max; tent, bspln3, c4hexic), frame time of
+# teem-miter and rendr go for an over + lit colour rendering, with 1 and 2 threads,
+# plus how rendr's cost grows with pixels and samples per ray.
+# Usage: bench/run.sh [RESULTS.md]   (prints markdown; needs teem-apps and ../shared)
+set -euo pipefail
+top=$(cd "$(dirname "$0")/.." && pwd)
+(cd "$top" && cargo build --release -q -p rendr)
+R="$top/target/release/rendr"
+CT="$top/../shared/volumes/imageio-stent-ct.nrrd"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+
+best() { # best-of-3 wall time of a command, seconds
+  local b=1e9
+  for _ in 1 2 3; do
+    local t0 t1
+    t0=$(date +%s.%N); "$@" >/dev/null 2>&1; t1=$(date +%s.%N)
+    b=$(awk -v a="$b" -v x="$t0" -v y="$t1" 'BEGIN { d = y - x; print (d < a ? d : a) }')
+  done
+  echo "$b"
+}
+
+# Volumes: the real CT (128x128x256 short, index space) and a 256^3 synthetic float.
+"$R" sdg -w 12 -sz 256 256 256 -l 256 256 256 -o syn.nrrd
+# Orthographic cameras, image-plane extent 260 x 260 (world units) at distance 400.
+fov=$(awk 'BEGIN { print 2 * atan2(130, 400) * 180 / 3.14159265358979 }')
+SZ=${SZ:-256}
+STEP=${STEP:-1}
+N=$(awk -v s="$STEP" 'BEGIN { print int(260 / s + 1e-9) + 1 }')
+samples=$((SZ * SZ * N))
+
+declare -A AT=( [ct]="63.5 63.5 127.5" [syn]="0 0 0" )
+declare -A VOL=( [ct]="$CT" [syn]="syn.nrrd" )
+echo "## Machine"
+echo
+echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"
+echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
+echo
+echo "## Samples per second, teem-mrender vs rendr go (orthographic, ${SZ}x${SZ}, $N samples per ray = $samples samples)"
+echo
+echo "| volume | kernel | query | threads | Teem s | rendr s | Teem Msamples/s | rendr Msamples/s | ratio |"
+echo "|---|---|---|---|---|---|---|---|---|"
+for v in ct syn; do
+  at=(${AT[$v]})
+  fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+  for k in tent bspln3 c4hexic; do
+    for q in v gm; do
+      for nt in 1 2; do
+        tt=$(best teem-mrender -i "${VOL[$v]}" -k scalar -fr $fr -at ${AT[$v]} -up 0 0 1 -or -ar \
+               -dn -130 -di 0 -df 130 -ur -130 130 -vr -130 130 -is $SZ $SZ \
+               -k00 $k -k11 ${k}d -k22 zero -q $q -m max -step $STEP -nt $nt -o t.nrrd)
+        rt=$(best "$R" go -i "${VOL[$v]}" -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
+               -fov "$fov" -sz $SZ $SZ -k $k -p $q -b max -s $STEP -nt $nt -sp false -o r.nrrd)
+        awk -v v="$v" -v k="$k" -v q="$q" -v nt="$nt" -v tt="$tt" -v rt="$rt" -v n="$samples" 'BEGIN {
+          printf "| %s | %s | %s/max | %d | %.3f | %.3f | %.1f | %.1f | %.1fx |\n", v, k, q, nt, tt, rt, n / tt / 1e6, n / rt / 1e6, tt / rt }'
+      done
+    done
+  done
+done
+
+echo
+echo "## Frame time, teem-miter vs rendr go (CT, colour LUT + Blinn-Phong, over, early termination 0.99)"
+echo
+printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
+printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
+"$R" lgen -i c.txt a.txt -mm 0 2000 -l 1024 -o lut.nrrd
+teem-unu axinfo -i lut.nrrd -a 0 -l RGBA | teem-unu axinfo -a 1 -l "gage(scalar:v)" -o txf.nrrd
+printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
+echo "| kernel | threads | Teem s | rendr s | ratio |"
+echo "|---|---|---|---|---|"
+at=(${AT[ct]})
+fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+for k in tent bspln3; do
+  for nt in 1 2; do
+    tt=$(best teem-miter -i "$CT" -txf txf.nrrd -fr $fr -at ${AT[ct]} -up 0 0 1 -or -ar -dn -130 -di 0 -df 130 \
+           -ur -130 130 -vr -130 130 -is $SZ $SZ -k00 $k -k11 ${k}d -k22 zero -step $STEP -ref $STEP \
+           -n1 0.99 -ld 0 0 1 -ads 0.2 0.8 0.1 -sp 150 -nt $nt -o t.nrrd)
+    rt=$(best "$R" go -i "$CT" -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov" \
+           -sz $SZ $SZ -k $k -p rgbalit -b over -s $STEP -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt \
+           -ph 0.2 0.8 0.1 150 -nt $nt -sp false -o r.nrrd)
+    awk -v k="$k" -v nt="$nt" -v tt="$tt" -v rt="$rt" 'BEGIN { printf "| %s | %d | %.3f | %.3f | %.1fx |\n", k, nt, tt, rt }'
+  done
+done
+
+echo
+echo "## How rendr's cost grows (CT, bspln3, value/max, 1 thread)"
+echo
+echo "| image | step | samples | seconds | ns/sample |"
+echo "|---|---|---|---|---|"
+for cfg in "128 1" "256 1" "512 1" "256 2" "256 0.5" "256 0.25"; do
+  set -- $cfg
+  n=$(awk -v s="$2" 'BEGIN { print int(260 / s + 1e-9) + 1 }')
+  ns=$(( $1 * $1 * n ))
+  rt=$(best "$R" go -i "$CT" -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov" \
+         -sz $1 $1 -k bspln3 -p v -b max -s $2 -nt 1 -sp false -o r.nrrd)
+  awk -v a="$1" -v s="$2" -v n="$ns" -v t="$rt" 'BEGIN { printf "| %dx%d | %s | %d | %.3f | %.1f |\n", a, a, s, n, t, t / n * 1e9 }'
+done
