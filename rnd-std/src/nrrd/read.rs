@@ -9,17 +9,171 @@ use crate::{Error, Result};
 
 /// Reads a NRRD or plain-text array from `path` (`-` = stdin).
 pub fn read(path: &Path) -> Result<Nrrd> {
-    let bytes = if path.as_os_str() == "-" {
+    if path.as_os_str() == "-" {
         let mut b = Vec::new();
         std::io::stdin()
             .read_to_end(&mut b)
             .map_err(|e| Error::io(path, "can't read", e))?;
-        b
-    } else {
-        std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?
-    };
+        return read_bytes(&b, Path::new(".")).map_err(|e| e.with_path(path));
+    }
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    read_bytes(&bytes, &dir).map_err(|e| e.with_path(path))
+    match read_streaming(path) {
+        Ok(Some(n)) => Ok(n),
+        Ok(None) => {
+            let b = std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?;
+            read_bytes(&b, &dir).map_err(|e| e.with_path(path))
+        }
+        Err(e) => Err(e.with_path(path)),
+    }
+}
+
+/// Reads an attached-header NRRD with raw, gzip or bzip2 data straight from the file into
+/// typed samples, so a volume needs its own size in memory and not twice that. Returns
+/// None for everything else (text arrays, detached headers, ascii/hex data, byte skip
+/// -1), which the in-memory reader handles.
+fn read_streaming(path: &Path) -> Result<Option<Nrrd>> {
+    use std::io::BufRead;
+    // Pipes and other special files are read once, whole, by the in-memory reader.
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => {}
+        _ => return Ok(None),
+    }
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
+    let file_len = f.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
+    let mut r = std::io::BufReader::with_capacity(1 << 16, f);
+    let head = r.fill_buf().map_err(|e| Error::io(path, "can't read", e))?;
+    if !head.starts_with(b"NRRD") {
+        return Ok(None);
+    }
+    // Header: lines up to the first empty one (bounded).
+    let mut text = Vec::new();
+    loop {
+        let mut line = Vec::new();
+        let n = r
+            .read_until(b'\n', &mut line)
+            .map_err(|e| Error::io(path, "can't read", e))?;
+        if n == 0 {
+            break;
+        }
+        let body = line.strip_suffix(b"\n").unwrap_or(&line);
+        let body = body.strip_suffix(b"\r").unwrap_or(body);
+        if body.is_empty() && !text.is_empty() {
+            break;
+        }
+        text.extend_from_slice(&line);
+        if text.len() > 1 << 20 {
+            return Err(Error::msg("NRRD header is longer than 1 MiB"));
+        }
+    }
+    let header_len = text.len() as u64 + 1;
+    let text =
+        std::str::from_utf8(&text).map_err(|_| Error::msg("NRRD header is not valid text"))?;
+    let (parsed, data_file) = parse_header(text)?;
+    let enc = parsed.encoding;
+    if data_file.is_some()
+        || !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2)
+        || parsed.skips.byte < 0
+    {
+        return Ok(None);
+    }
+    let n = parsed
+        .count()
+        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", parsed.sizes)))?;
+    let tsz = parsed.scalar.size();
+    let nbytes = n
+        .checked_mul(tsz)
+        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", parsed.sizes)))?;
+    check_memory(
+        nbytes,
+        &format!("sizes {:?} of {}", parsed.sizes, parsed.scalar),
+    )?;
+    for _ in 0..parsed.skips.line {
+        let mut l = Vec::new();
+        if r.read_until(b'\n', &mut l)
+            .map_err(|e| Error::io(path, "can't read", e))?
+            == 0
+        {
+            return Err(Error::msg("line skip goes past the end of the data"));
+        }
+    }
+    let skip = parsed.skips.byte as u64;
+    if std::io::copy(&mut (&mut r).take(skip), &mut std::io::sink())
+        .map_err(|e| Error::io(path, "can't read", e))?
+        < skip
+    {
+        return Err(Error::msg("byte skip goes past the end of the data"));
+    }
+    if enc == Encoding::Raw && file_len.saturating_sub(header_len + skip) < nbytes as u64 {
+        return Err(Error::msg(format!(
+            "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
+            parsed.sizes,
+            parsed.scalar,
+            file_len.saturating_sub(header_len + skip)
+        )));
+    }
+    let mut src: Box<dyn Read> = match enc {
+        Encoding::Gzip => Box::new(flate2::read::MultiGzDecoder::new(r)),
+        Encoding::Bzip2 => Box::new(bzip2::read::MultiBzDecoder::new(r)),
+        _ => Box::new(r),
+    };
+    let mut data = from_bytes(parsed.scalar, &[], parsed.endian, 0);
+    let mut chunk = vec![0u8; (1 << 20) / tsz * tsz];
+    let mut got = 0usize;
+    let mut carry = 0usize;
+    while got < nbytes {
+        let want = (nbytes - got).min(chunk.len() - carry);
+        let k = src
+            .read(&mut chunk[carry..carry + want])
+            .map_err(|e| Error::msg(format!("{} data can't be decompressed: {e}", enc.as_str())))?;
+        if k == 0 {
+            return Err(Error::msg(format!(
+                "data is truncated: got {got} bytes, sizes {:?} of {} need {nbytes}",
+                parsed.sizes, parsed.scalar
+            )));
+        }
+        got += k;
+        let avail = carry + k;
+        let whole = avail / tsz * tsz;
+        append(&mut data, &chunk[..whole], parsed.endian, n);
+        chunk.copy_within(whole..avail, 0);
+        carry = avail - whole;
+    }
+    let Parsed { header, .. } = parsed;
+    Ok(Some(Nrrd { header, data }))
+}
+
+/// Appends the samples in `b` (whole samples) to `d`, reserving up to `total` samples
+/// in steps as data arrives.
+fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) {
+    macro_rules! go {
+        ($v:ident, $ty:ty) => {{
+            const S: usize = std::mem::size_of::<$ty>();
+            let add = b.len() / S;
+            if $v.capacity() - $v.len() < add {
+                let grow = ($v.len() + add).max(2 * $v.len()).min(total);
+                $v.reserve_exact(grow.saturating_sub($v.len()).max(add));
+            }
+            $v.extend(b.chunks_exact(S).map(|c| {
+                let a: [u8; S] = c.try_into().expect("chunk size");
+                match e {
+                    Endian::Little => <$ty>::from_le_bytes(a),
+                    Endian::Big => <$ty>::from_be_bytes(a),
+                }
+            }));
+        }};
+    }
+    match d {
+        Data::I8(v) => go!(v, i8),
+        Data::U8(v) => go!(v, u8),
+        Data::I16(v) => go!(v, i16),
+        Data::U16(v) => go!(v, u16),
+        Data::I32(v) => go!(v, i32),
+        Data::U32(v) => go!(v, u32),
+        Data::I64(v) => go!(v, i64),
+        Data::U64(v) => go!(v, u64),
+        Data::F32(v) => go!(v, f32),
+        Data::F64(v) => go!(v, f64),
+    }
 }
 
 /// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data
