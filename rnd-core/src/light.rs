@@ -120,7 +120,7 @@ pub fn blinn_phong(
         let ndl = dot3(nrm, l).max(0.0);
         let h = [l[0] + vdir[0], l[1] + vdir[1], l[2] + vdir[2]];
         let hl = math::sqrtf(dot3(h, h));
-        let spec = if hl > 0.0 {
+        let spec = if hl > 0.0 && ph.ks != 0.0 {
             let ndh = (dot3(nrm, h) / hl).max(0.0);
             ph.ks * math::powf(ndh, ph.p)
         } else {

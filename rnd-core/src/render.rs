@@ -149,6 +149,12 @@ impl<'a> RenderSpec<'a> {
         {
             return Err(rerr("-dcn/-dcf: depth-cue colours must be finite".into()));
         }
+        if ph.p < 0.0 {
+            return Err(rerr(format!(
+                "-ph: specular exponent {} must be >= 0",
+                ph.p
+            )));
+        }
         if params.blend == Blend::Over && !params.probe.is_colour() {
             return Err(rerr(format!(
                 "-b over: with over blend, must probe rgba or rgbalit (not {})",

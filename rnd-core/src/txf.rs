@@ -217,6 +217,9 @@ impl Lut {
         if rgba.is_empty() {
             return Err(Error::new(ErrorKind::Txf, "LUT has no entries"));
         }
+        if rgba.iter().flatten().any(|x| !x.is_finite()) {
+            return Err(Error::new(ErrorKind::Txf, "LUT has non-finite entries"));
+        }
         Ok(Lut { vmin, vmax, rgba })
     }
 

@@ -576,3 +576,42 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
     assert!(e.msg.contains("coincide"), "{e}");
 }
+
+/// Fuzz regression: a negative specular exponent with ks = 0 gave 0 · ∞ = NaN; negative
+/// exponents are now refused, and ks = 0 skips the specular term.
+#[test]
+fn negative_specular_exponent_is_refused() {
+    let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
+    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
+    let mut p = RenderParams::new(cam(
+        [0.0, 0.0, 5.0],
+        [0.0; 3],
+        [0.0, 1.0, 0.0],
+        -1.0,
+        1.0,
+        [3, 3],
+        true,
+    ));
+    p.probe = Probe::RgbaLit;
+    p.blend = Blend::Over;
+    p.phong = Phong {
+        ka: -6.7,
+        kd: -8.5,
+        ks: 0.0,
+        p: -1.049,
+    };
+    let e = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap_err();
+    assert!(e.msg.contains("specular exponent"), "{e}");
+    // With p = 0 and ks = 0 the output is finite.
+    p.phong.p = 0.0;
+    let g = grid([8, 8, 8], [0.0; 3]);
+    let (data, itow) = make(9, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let img = render(
+        &RenderSpec::new(p, Some(&lut), None, &lights).unwrap(),
+        AnyVolume::F32(vol),
+        KernelName::Tent,
+    );
+    assert!(img.iter().all(|v| v.is_finite()));
+    assert!(Lut::new(0.0, 1.0, vec![[f32::NAN, 0.0, 0.0, 1.0]]).is_err());
+}
