@@ -112,3 +112,16 @@ for k in box tent bspln3; do
   done
 done
 go -i "$H" $HC -sz 300 300 -k bspln3 -s 1 -p gm -b max -o "$out/head-gm-mip.png"
+
+# ---------------------------------------------------------------- gallery (real CT, read from ../shared)
+CT="$top/../shared/volumes/imageio-stent-ct.nrrd"
+if [ -f "$CT" ]; then
+  CC="-at 63.5 63.5 127.5 -up 0 0 -1 -nc -140 -fc 140 -sz 200 300 -k bspln3"
+  go -i "$CT" $CC -fr 63.5 -536.5 127.5 -fov 26 -s 1 -p v -b max -o "$out/ct-mip.png"
+  printf '#space:=rgb\n0 0.9 0.3 0.25\n600 0.95 0.6 0.5\n1500 1 1 1\n' > ctc.txt
+  printf '#space:=alpha\n0 0\n200 0\n350 0.25\n800 0.6\n2000 1\n' > cta.txt
+  "$R" lgen -i ctc.txt cta.txt -mm 0 2000 -o ct-lut.nrrd
+  printf '#space:=rgb\n1 1 1  0 0 1  1\n' > front.txt
+  go -i "$CT" $CC -fr 363.5 -436.5 227.5 -fov 30 -s 0.5 -us 1 -p rgbalit -b over \
+     -lut ct-lut.nrrd -lit front.txt -ph 0.3 0.7 0.3 40 -o "$out/ct-over.png"
+fi
