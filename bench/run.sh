@@ -23,8 +23,12 @@ best() { # best-of-3 wall time of a command, seconds
   echo "$b"
 }
 
-# Volumes: the real CT (128x128x256 short, index space) and a 256^3 synthetic float.
-"$R" sdg -w 12 -sz 256 256 256 -l 256 256 256 -o syn.nrrd
+# Volumes: the real CT (128x128x256 short; it records no geometry, so `unu dnorm` gives
+# both programs the same identity orientation) and a 256^3 synthetic float (raw, so
+# decompression does not dominate the timings).
+teem-unu dnorm -i "$CT" -o ct.nrrd
+CT=ct.nrrd
+"$R" sdg -w 12 -sz 256 256 256 -l 256 256 256 -o - | teem-unu save -f nrrd -e raw -o syn.nrrd
 # Orthographic cameras, image-plane extent 260 x 260 (world units) at distance 400.
 fov=$(awk 'BEGIN { print 2 * atan2(130, 400) * 180 / 3.14159265358979 }')
 SZ=${SZ:-256}
@@ -33,6 +37,9 @@ N=$(awk -v s="$STEP" 'BEGIN { print int(260 / s + 1e-9) + 1 }')
 samples=$((SZ * SZ * N))
 
 declare -A AT=( [ct]="63.5 63.5 127.5" [syn]="0 0 0" )
+# Fail loudly rather than time an error.
+teem-mrender -i "$CT" -k scalar -fr 63.5 -336.5 127.5 -at 63.5 63.5 127.5 -up 0 0 1 -or -ar \
+  -dn -130 -di 0 -df 130 -ur -130 130 -vr -130 130 -is 8 8 -q v -m max -step 1 -o check.nrrd
 declare -A VOL=( [ct]="$CT" [syn]="syn.nrrd" )
 echo "## Machine"
 echo

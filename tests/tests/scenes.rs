@@ -615,3 +615,116 @@ fn negative_specular_exponent_is_refused() {
     assert!(img.iter().all(|v| v.is_finite()));
     assert!(Lut::new(0.0, 1.0, vec![[f32::NAN, 0.0, 0.0, 1.0]]).is_err());
 }
+
+/// Every valid probe × blend pair: the pixel equals the blend computed by hand from the
+/// per-sample probe values the trace reports (probing and blending are orthogonal).
+#[test]
+fn every_probe_blend_pair_blends_its_samples() {
+    let g = Grid {
+        sizes: [30, 30, 30],
+        lengths: [4.0; 3],
+        shear: [0.0; 3],
+        rot: [0.1, 0.0, 0.2],
+        centre: [0.0; 3],
+    };
+    let (data, itow) = make(2, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.4]]).unwrap();
+    let c = Txf::new(
+        TxfSpace::Rgb,
+        &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 1.0, 0.5]],
+    )
+    .unwrap();
+    let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
+    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
+    let mut checked = 0;
+    for probe in Probe::ALL {
+        for blend in rnd_core::blend::Blend::ALL {
+            if blend == Blend::Over && !probe.is_colour() {
+                continue;
+            }
+            let mut p = RenderParams::new(cam(
+                [6.0, 12.0, 5.0],
+                [0.0; 3],
+                [0.0, 0.0, 1.0],
+                -2.5,
+                2.5,
+                [9, 9],
+                false,
+            ));
+            p.probe = probe;
+            p.blend = blend;
+            p.plane_sep = 0.1;
+            p.unit_step = 0.2;
+            p.outside = -7.0;
+            let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
+            let img = render(&spec, AnyVolume::F32(vol), KernelName::Ctmr);
+            let len = probe.length();
+            for (h, v) in [(4, 4), (0, 0), (2, 6)] {
+                let samples = dispatch(
+                    AnyVolume::F32(vol),
+                    KernelName::Ctmr,
+                    Trace {
+                        spec: &spec,
+                        px: [h, v],
+                    },
+                );
+                let counted: Vec<[f32; 4]> = samples
+                    .iter()
+                    .filter(|s| s.counted)
+                    .map(|s| s.probe)
+                    .collect();
+                // Everywhere-defined probes count every sample.
+                if probe.everywhere() {
+                    assert_eq!(counted.len(), samples.len());
+                }
+                let mut want = [0.0f32; 4];
+                if counted.is_empty() {
+                    want = [-7.0; 4];
+                } else {
+                    match blend {
+                        Blend::Max => {
+                            for c in 0..len {
+                                want[c] = counted.iter().map(|x| x[c]).fold(f32::MIN, f32::max);
+                            }
+                        }
+                        Blend::Sum | Blend::Mean => {
+                            for c in 0..len {
+                                want[c] = counted.iter().map(|x| x[c]).sum();
+                                if blend == Blend::Mean {
+                                    want[c] /= counted.len() as f32;
+                                }
+                            }
+                        }
+                        Blend::Over => {
+                            let (mut col, mut al) = ([0.0f32; 3], 0.0f32);
+                            for x in &counted {
+                                let t = (1.0 - al) * x[3];
+                                for c in 0..3 {
+                                    col[c] += t * x[c];
+                                }
+                                al += t;
+                            }
+                            for c in 0..3 {
+                                want[c] = if al > 0.0 { col[c] / al } else { 0.0 };
+                            }
+                            want[3] = al;
+                        }
+                    }
+                }
+                let got = px(&img, len, 9, h, v);
+                for c in 0..len {
+                    let tol = 1e-5 * (1.0 + want[c].abs());
+                    assert!(
+                        (got[c] - want[c]).abs() <= tol,
+                        "{probe}/{blend} ({h},{v}) ch {c}: {} vs {}",
+                        got[c],
+                        want[c]
+                    );
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 3 * (9 * 3 + 2));
+}
