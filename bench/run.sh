@@ -88,7 +88,7 @@ for k in tent bspln3; do
     rt=$(best "$R" go -i "$CT" -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov" \
            -sz $SZ $SZ -k $k -p rgbalit -b over -s $STEP -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt \
            -ph 0.2 0.8 0.1 150 -nt $nt -sp false -o r.nrrd)
-    awk -v k="$k" -v nt="$nt" -v tt="$tt" -v rt="$rt" 'BEGIN { printf "| %s | %d | %.3f | %.3f | %.1fx |\n", k, nt, tt, rt }'
+    awk -v k="$k" -v nt="$nt" -v tt="$tt" -v rt="$rt" 'BEGIN { printf "| %s | %d | %.3f | %.3f | %.1fx |\n", k, nt, tt, rt, tt / rt }'
   done
 done
 
