@@ -18,18 +18,6 @@ fn grey(p: &Path) -> (u32, u32, Vec<f32>) {
     (w, h, v)
 }
 
-fn project(c: &Camera, p: [f64; 3]) -> (f64, f64) {
-    let v = c.wtov.point(p);
-    let (u, w) = if c.spec.ortho {
-        (v[0], v[1])
-    } else {
-        (v[0] * c.d / -v[2], v[1] * c.d / -v[2])
-    };
-    let hi = (u + c.wdth / 2.0) / c.wdth * c.spec.size[0] as f64 - 0.5;
-    let vi = (c.hght / 2.0 - w) / c.hght * c.spec.size[1] as f64 - 0.5;
-    (hi, vi)
-}
-
 /// Brightest pixel within `r` of (x, y).
 fn peak_near(img: &(u32, u32, Vec<f32>), x: f64, y: f64, r: i64) -> (i64, i64) {
     let (w, h, v) = img;
@@ -108,7 +96,7 @@ fn figures_are_current_and_experiments_hold() {
         .unwrap();
         let img = f(file);
         for blob in [[0.0, 0.0, 0.0], [0.6, 0.0, 0.0], [0.0, 0.0, 0.6]] {
-            let (px, py) = project(&cam, blob);
+            let (px, py) = cam.project(blob);
             let (bx, by) = peak_near(&img, px, py, 8);
             assert!(
                 (bx as f64 - px).abs() <= 1.5 && (by as f64 - py).abs() <= 1.5,
@@ -116,14 +104,14 @@ fn figures_are_current_and_experiments_hold() {
             );
         }
         // The look-at point (the origin blob) is the image centre; the "up" blob is above it.
-        let (cx, cy) = project(&cam, [0.0; 3]);
+        let (cx, cy) = cam.project([0.0; 3]);
         assert!((cx - 99.5).abs() < 1e-9 && (cy - 99.5).abs() < 1e-9);
         let upblob = if up[2] == 1.0 {
             [0.0, 0.0, 0.6]
         } else {
             [0.6, 0.0, 0.0]
         };
-        let (ux, uy) = project(&cam, upblob);
+        let (ux, uy) = cam.project(upblob);
         assert!((ux - cx).abs() < 1e-9 && uy < cy - 20.0);
     }
     // 1b. Aspect ratio: the sphere is round in a 2:1 image.
@@ -172,7 +160,7 @@ fn figures_are_current_and_experiments_hold() {
     .unwrap();
     let l = rnd_core::math::v3::normalize([1.0, 0.5, 1.0]);
     let hv = rnd_core::math::v3::normalize([l[0], l[1], l[2] + 1.0]);
-    let (px, py) = project(&cam, rnd_core::math::v3::scale(0.6, hv));
+    let (px, py) = cam.project(rnd_core::math::v3::scale(0.6, hv));
     let spec = f("bp-spec.png");
     let (bx, by) = peak_near(&spec, 75.0, 75.0, 75);
     assert!(

@@ -178,6 +178,20 @@ impl Camera {
         (us, vs)
     }
 
+    /// Continuous pixel coordinates (hi, vi) at which world point `p` appears (the
+    /// inverse of the ray set-up: pixel centres are at integer coordinates).
+    pub fn project(&self, p: [f64; 3]) -> (f64, f64) {
+        let v = self.wtov.point(p);
+        let (u, w) = if self.spec.ortho {
+            (v[0], v[1])
+        } else {
+            (v[0] * self.d / -v[2], v[1] * self.d / -v[2])
+        };
+        let hi = (u + self.wdth / 2.0) / self.wdth * self.spec.size[0] as f64 - 0.5;
+        let vi = (self.hght / 2.0 - w) / self.hght * self.spec.size[1] as f64 - 0.5;
+        (hi, vi)
+    }
+
     /// View-space start on the near plane and per-plane step for pixel (hi, vi), for a
     /// plane separation `plane_sep` (SPEC §5.3).
     #[inline]
@@ -221,6 +235,26 @@ mod tests {
         assert!((c.u.x + 0.894427191).abs() < 1e-9);
         let p = c.wtov.point(c.vtow.point([1.0, 2.0, 3.0]));
         assert!((p[2] - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn project_inverts_ray() {
+        for ortho in [false, true] {
+            let mut sp = spec();
+            sp.ortho = ortho;
+            sp.size = [31, 17];
+            let c = Camera::new(sp).unwrap();
+            for (hi, vi) in [(0, 0), (30, 16), (7, 11)] {
+                let (s, d) = c.ray(hi, vi, 0.25);
+                for k in [0.0, 3.0] {
+                    let p = c
+                        .vtow
+                        .point([s[0] + k * d[0], s[1] + k * d[1], s[2] + k * d[2]]);
+                    let (h, v) = c.project(p);
+                    assert!((h - hi as f64).abs() < 1e-9 && (v - vi as f64).abs() < 1e-9);
+                }
+            }
+        }
     }
 
     #[test]

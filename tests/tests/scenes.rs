@@ -3,7 +3,7 @@
 
 use rnd_core::affine::Affine4;
 use rnd_core::blend::Blend;
-use rnd_core::camera::{Camera, CameraSpec};
+use rnd_core::camera::CameraSpec;
 use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::light::{Light, Phong};
@@ -179,19 +179,6 @@ fn argmax(img: &[f32], w: u32) -> (u32, u32) {
     (i as u32 % w, i as u32 / w)
 }
 
-/// Predicted (hi, vi) of a world point, from the camera model.
-fn project(c: &Camera, p: [f64; 3]) -> (f64, f64) {
-    let v = c.wtov.point(p);
-    let (u, w) = if c.spec.ortho {
-        (v[0], v[1])
-    } else {
-        (v[0] * c.d / -v[2], v[1] * c.d / -v[2])
-    };
-    let hi = (u + c.wdth / 2.0) / c.wdth * c.spec.size[0] as f64 - 0.5;
-    let vi = (c.hght / 2.0 - w) / c.hght * c.spec.size[1] as f64 - 0.5;
-    (hi, vi)
-}
-
 /// A single bright voxel under `max` lands where the camera maps it; the look-at point
 /// is the image centre.
 #[test]
@@ -213,13 +200,13 @@ fn impulse_lands_where_projected() {
             let spec = RenderSpec::new(p, None, None, &[]).unwrap();
             let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
             let (h, v) = argmax(&img, 61);
-            let (ph, pv) = project(&spec.camera, spot);
+            let (ph, pv) = spec.camera.project(spot);
             assert!(
                 (h as f64 - ph).abs() <= 1.0 && (v as f64 - pv).abs() <= 1.0,
                 "fr {fr:?}: max at ({h},{v}), predicted ({ph:.2},{pv:.2})"
             );
             // The look-at point projects to the image centre.
-            let (ch, cv) = project(&spec.camera, at);
+            let (ch, cv) = spec.camera.project(at);
             assert!((ch - 30.0).abs() < 1e-9 && (cv - 23.0).abs() < 1e-9);
         }
     }
@@ -462,7 +449,7 @@ fn blinn_phong_on_a_sphere() {
     let l = rnd_core::math::v3::normalize(ldir);
     let hv = rnd_core::math::v3::normalize([l[0], l[1], l[2] + 1.0]);
     let spot = rnd_core::math::v3::scale(0.6, hv);
-    let (ph, pv) = project(&spec.camera, spot);
+    let (ph, pv) = spec.camera.project(spot);
     assert!(
         (h as f64 - ph).abs() <= 1.5 && (v as f64 - pv).abs() <= 1.5,
         "highlight at ({h},{v}), predicted ({ph:.1},{pv:.1})"
