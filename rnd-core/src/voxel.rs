@@ -12,6 +12,11 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     const TYPE_NAME: &'static str;
     /// The value as f32 (i16 converts exactly).
     fn to_f32(self) -> f32;
+    /// The samples as f32 without conversion, when they already are f32.
+    #[inline(always)]
+    fn as_f32_slice(_s: &[Self]) -> Option<&[f32]> {
+        None
+    }
 }
 
 impl Voxel for f32 {
@@ -19,6 +24,10 @@ impl Voxel for f32 {
     #[inline(always)]
     fn to_f32(self) -> f32 {
         self
+    }
+    #[inline(always)]
+    fn as_f32_slice(s: &[f32]) -> Option<&[f32]> {
+        Some(s)
     }
 }
 
