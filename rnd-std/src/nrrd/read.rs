@@ -76,17 +76,8 @@ fn read_streaming(path: &Path) -> Result<Option<Nrrd>> {
     {
         return Ok(None);
     }
-    let n = parsed
-        .count()
-        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", parsed.sizes)))?;
+    let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
-    let nbytes = n
-        .checked_mul(tsz)
-        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", parsed.sizes)))?;
-    check_memory(
-        nbytes,
-        &format!("sizes {:?} of {}", parsed.sizes, parsed.scalar),
-    )?;
     for _ in 0..parsed.skips.line {
         let mut l = Vec::new();
         if r.read_until(b'\n', &mut l)
@@ -724,15 +715,18 @@ pub(crate) fn check_memory(bytes: usize, what: &str) -> Result<()> {
     Ok(())
 }
 
-fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
-    let n = h
-        .count()
-        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
-    let tsz = h.scalar.size();
-    let nbytes = n
-        .checked_mul(tsz)
-        .ok_or_else(|| Error::msg(format!("sizes {:?} overflow", h.sizes)))?;
+/// Number of samples and bytes the header asks for, refused when they overflow or exceed
+/// the machine's memory (checked before anything is allocated).
+fn data_size(h: &Header) -> Result<(usize, usize)> {
+    let overflow = || Error::msg(format!("sizes {:?} overflow", h.sizes));
+    let n = h.count().ok_or_else(overflow)?;
+    let nbytes = n.checked_mul(h.scalar.size()).ok_or_else(overflow)?;
     check_memory(nbytes, &format!("sizes {:?} of {}", h.sizes, h.scalar))?;
+    Ok((n, nbytes))
+}
+
+fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
+    let (n, nbytes) = data_size(h)?;
     let bytes: std::borrow::Cow<[u8]> = match h.encoding {
         Encoding::Raw => {
             let b = skip_bytes(raw, skips, Some(nbytes))?;
@@ -857,34 +851,9 @@ pub(crate) fn from_f64(t: ScalarType, v: &[f64]) -> Data {
 }
 
 fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Data {
-    macro_rules! conv {
-        ($ty:ty, $var:ident) => {{
-            const S: usize = std::mem::size_of::<$ty>();
-            let v: Vec<$ty> = b[..n * S]
-                .chunks_exact(S)
-                .map(|c| {
-                    let a: [u8; S] = c.try_into().expect("chunk size");
-                    match e {
-                        Endian::Little => <$ty>::from_le_bytes(a),
-                        Endian::Big => <$ty>::from_be_bytes(a),
-                    }
-                })
-                .collect();
-            Data::$var(v)
-        }};
-    }
-    match t {
-        ScalarType::I8 => conv!(i8, I8),
-        ScalarType::U8 => conv!(u8, U8),
-        ScalarType::I16 => conv!(i16, I16),
-        ScalarType::U16 => conv!(u16, U16),
-        ScalarType::I32 => conv!(i32, I32),
-        ScalarType::U32 => conv!(u32, U32),
-        ScalarType::I64 => conv!(i64, I64),
-        ScalarType::U64 => conv!(u64, U64),
-        ScalarType::F32 => conv!(f32, F32),
-        ScalarType::F64 => conv!(f64, F64),
-    }
+    let mut d = from_f64(t, &[]);
+    append(&mut d, &b[..n * t.size()], e, n);
+    d
 }
 
 /// Centering helper for callers: per-axis centring or Unknown.
