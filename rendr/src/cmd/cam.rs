@@ -2,7 +2,7 @@
 
 use rnd_core::camera::{Camera, CameraSpec};
 
-use crate::args::{def, flag, req, ArgError, Args, CmdSpec};
+use crate::args::{def, ArgError, Args, CmdSpec};
 use crate::fmt::{g6, list6, matrix};
 
 pub static SPEC: CmdSpec = CmdSpec {
@@ -13,33 +13,16 @@ pub static SPEC: CmdSpec = CmdSpec {
            from the eye and the image-plane height and width; then converts one view-space \
            4-vector (-v) to world space.",
     response_files: true,
-    opts: &[
-        req(&["fr"], 3, "x y z", "look-from point"),
-        req(&["at"], 3, "x y z", "look-at point"),
-        req(&["up"], 3, "x y z", "up direction"),
-        req(
-            &["nc"],
-            1,
-            "dist",
-            "near clipping plane, relative to look-at",
-        ),
-        req(
-            &["fc"],
-            1,
-            "dist",
-            "far clipping plane, relative to look-at",
-        ),
-        req(&["fov"], 1, "angle", "vertical field of view, in degrees"),
-        req(&["sz"], 2, "horz vert", "image size in pixels"),
-        flag(&["ortho"], "orthographic instead of perspective projection"),
-        def(
+    opts: with_camera_opts!(
+        [],
+        [def(
             &["v"],
             4,
             "0 0 0 1",
             "x y z w",
             "view-space 4-vector to convert to world space",
-        ),
-    ],
+        )]
+    ),
     pos: &[],
 };
 

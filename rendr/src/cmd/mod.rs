@@ -2,6 +2,25 @@
 
 use crate::args::{Args, CmdSpec};
 
+/// An option table with the camera options (`-fr -at -up -nc -fc -fov -sz -ortho`, read
+/// by `cam::camera_spec`) between the options in the first and the second list.
+macro_rules! with_camera_opts {
+    ([$($pre:expr),* $(,)?], [$($post:expr),* $(,)?]) => {
+        &[
+            $($pre,)*
+            $crate::args::req(&["fr"], 3, "x y z", "look-from point"),
+            $crate::args::req(&["at"], 3, "x y z", "look-at point"),
+            $crate::args::req(&["up"], 3, "x y z", "up direction"),
+            $crate::args::req(&["nc"], 1, "dist", "near clipping plane, relative to look-at"),
+            $crate::args::req(&["fc"], 1, "dist", "far clipping plane, relative to look-at"),
+            $crate::args::req(&["fov"], 1, "angle", "vertical field of view, in degrees"),
+            $crate::args::req(&["sz"], 2, "horz vert", "image size in pixels"),
+            $crate::args::flag(&["ortho"], "orthographic instead of perspective projection"),
+            $($post),*
+        ]
+    };
+}
+
 mod about;
 mod cam;
 mod ceval;
