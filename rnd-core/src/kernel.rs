@@ -73,7 +73,7 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
 }
 
 macro_rules! kernel_type {
-    ($(#[$m:meta])* $ty:ident, $s:expr, $name:ident) => {
+    ($(#[$m:meta])* $ty:ident, $s:expr) => {
         $(#[$m])*
         #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
         pub struct $ty;
@@ -86,25 +86,25 @@ macro_rules! kernel_type {
 
 kernel_type!(
     /// The zero kernel (support 1): everything is 0; its derivative is itself.
-    Zero, 1, Zero);
+    Zero, 1);
 kernel_type!(
     /// Box (support 1): 1 on [−0.5, 0.5), else 0. Derivative: zero.
-    BoxK, 1, Box);
+    BoxK, 1);
 kernel_type!(
     /// Tent (support 2): linear interpolation.
-    Tent, 2, Tent);
+    Tent, 2);
 kernel_type!(
     /// Quadratic B-spline (support 3).
-    Bspln2, 3, Bspln2);
+    Bspln2, 3);
 kernel_type!(
     /// Cubic B-spline (support 4): C², approximating.
-    Bspln3, 4, Bspln3);
+    Bspln3, 4);
 kernel_type!(
     /// Catmull-Rom cubic spline (support 4): interpolating, C¹.
-    Ctmr, 4, Ctmr);
+    Ctmr, 4);
 kernel_type!(
     /// Teem's C4 hexic (support 6): C⁴, partition of unity, not interpolating.
-    C4Hexic, 6, C4hexic);
+    C4Hexic, 6);
 
 impl Kernel<1> for Zero {
     const NAME: KernelName = KernelName::Zero;

@@ -30,35 +30,21 @@ mod rand_like {
     }
 }
 
-struct Many(Vec<[f64; 3]>, bool);
+/// World-space points to evaluate with value and gradient.
+struct Many(Vec<[f64; 3]>);
 impl ConvoTask for Many {
     type Output = Vec<ConvoSample>;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Self::Output {
         let mut c = Convo::<V, K, S>::new(vol);
-        self.0
-            .iter()
-            .map(|&p| {
-                if self.1 {
-                    c.eval_index(p, true)
-                } else {
-                    c.eval_world(p, true)
-                }
-            })
-            .collect()
+        self.0.iter().map(|&p| c.eval_world(p, true)).collect()
     }
 }
 
-fn gprobe(vol: &Path, pts: &Path, q: &str, k: &str, index: bool, out: &Path) -> Vec<f64> {
-    let teem_k = |k: &str| k.to_string();
+fn gprobe(vol: &Path, pts: &Path, q: &str, k: &str, out: &Path) -> Vec<f64> {
     let o = Command::new("teem-gprobe")
         .args(["-i", vol.to_str().unwrap(), "-k", "scalar", "-q", q])
-        .args(["-k00", &teem_k(k), "-k11", &format!("{k}d"), "-k22", "zero"])
-        .args([
-            "-pi",
-            pts.to_str().unwrap(),
-            "-psi",
-            if index { "true" } else { "false" },
-        ])
+        .args(["-k00", k, "-k11", &format!("{k}d"), "-k22", "zero"])
+        .args(["-pi", pts.to_str().unwrap(), "-psi", "false"])
         .args(["-o", out.to_str().unwrap()])
         .output()
         .unwrap();
@@ -70,7 +56,7 @@ fn gprobe(vol: &Path, pts: &Path, q: &str, k: &str, index: bool, out: &Path) -> 
     nrrd::read(out).unwrap().data.to_f64()
 }
 
-fn check(name: &str, file: &Path, pts: Vec<[f64; 3]>, index: bool, dir: &Path) {
+fn check(name: &str, file: &Path, pts: Vec<[f64; 3]>, dir: &Path) {
     let vol = rnd_std::volume_io::load_volume(file).unwrap();
     let (lo, hi) = vol.min_max();
     let scale = hi.abs().max(lo.abs()).max(1e-12);
@@ -86,9 +72,9 @@ fn check(name: &str, file: &Path, pts: Vec<[f64; 3]>, index: bool, dir: &Path) {
         KernelName::Ctmr,
         KernelName::C4hexic,
     ] {
-        let ours = dispatch(vol.view(), k, Many(pts.clone(), index));
-        let v = gprobe(file, &ptxt, "v", k.as_str(), index, &dir.join("v.nrrd"));
-        let gv = gprobe(file, &ptxt, "gv", k.as_str(), index, &dir.join("gv.nrrd"));
+        let ours = dispatch(vol.view(), k, Many(pts.clone()));
+        let v = gprobe(file, &ptxt, "v", k.as_str(), &dir.join("v.nrrd"));
+        let gv = gprobe(file, &ptxt, "gv", k.as_str(), &dir.join("gv.nrrd"));
         assert_eq!(v.len(), pts.len());
         let gscale = ours
             .iter()
@@ -109,7 +95,6 @@ fn check(name: &str, file: &Path, pts: Vec<[f64; 3]>, index: bool, dir: &Path) {
             );
             for c in 0..3 {
                 let g = gv[3 * i + c];
-                // Index-space probing: gage's gradient is then per index unit too.
                 assert!(
                     (s.grad_w[c] as f64 - g).abs() <= 1e-5 * gscale + 1e-4 * g.abs(),
                     "{name} {k} point {i} grad[{c}]: ours {:?} gage {:?}",
@@ -163,8 +148,8 @@ fn convolution_agrees_with_gprobe() {
             }))
         })
         .collect();
-    check("sdg-ml", &f, pts, false, &dir);
-    // 2. The real CT volume (no spacing recorded: index = world; probe in index space).
+    check("sdg-ml", &f, pts, &dir);
+    // 2. The real CT volume (no spacing recorded: index = world).
     if let Some(sh) = rnd_tests::shared("convolution_agrees_with_gprobe (CT part)") {
         // The file records no spacing (world = index for us). gage needs orientation:
         // give it identity space directions in a copy (written by rendr, read by Teem).
@@ -191,6 +176,6 @@ fn convolution_agrees_with_gprobe() {
         let pts: Vec<[f64; 3]> = (0..40)
             .map(|_| std::array::from_fn(|a| 3.0 + rng.next() * (sizes[a] - 7.0)))
             .collect();
-        check("stent-ct", &ct, pts, false, &dir);
+        check("stent-ct", &ct, pts, &dir);
     }
 }
