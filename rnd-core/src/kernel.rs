@@ -41,6 +41,11 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
         -((S as i32 - 1) / 2)
     };
 
+    /// For support-4 kernels whose weights are cubics in `alpha`: the coefficient tables
+    /// `[value, first derivative]`, `co[d][i]` the coefficient of alpha^d in weight i (see
+    /// [`horner4`]), so that a vector loop can evaluate all four weights at once.
+    const CUBIC4: Option<[[[f32; 4]; 4]; 2]> = None;
+
     /// Kernel value at `x`.
     fn k<T: Float>(x: T) -> T;
     /// First derivative at `x`.
@@ -48,8 +53,9 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// Second derivative at `x`.
     fn d2<T: Float>(x: T) -> T;
 
-    /// Value weights for fractional position `alpha` (lowest index first). Evaluated
-    /// in f64 (the high-order pieces cancel badly in f32) and rounded to f32.
+    /// Value weights for fractional position `alpha` (lowest index first). By default
+    /// evaluated in f64 (c4hexic's high-order pieces cancel badly in f32) and rounded to
+    /// f32; the cubic kernels override it with f32 polynomials in `alpha`.
     #[inline(always)]
     fn weights(alpha: f64) -> [f32; S] {
         core::array::from_fn(|i| Self::k(alpha - (Self::LO + i as i32) as f64) as f32)
@@ -63,12 +69,32 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
     fn base(x: f64) -> (i64, f64) {
-        // Callers keep |x| far below 2^52, where truncation toward zero plus a
-        // correction is an exact floor (and much cheaper than a general one).
+        // Callers keep |x| below 2^51, where adding and subtracting 1.5·2^52 rounds to
+        // the nearest integer (the sum lies in [2^52, 2^53), spacing 1); one correction
+        // makes it the floor. All in floating point: much shorter latency than a round
+        // trip through the integer unit, and exact.
+        const ROUND: f64 = 6_755_399_441_055_744.0;
         let y = if S % 2 == 0 { x } else { x + 0.5 };
-        let t = y as i64;
-        let n = if (t as f64) > y { t - 1 } else { t };
-        (n, x - n as f64)
+        let r = (y + ROUND) - ROUND;
+        let f = r - if r > y { 1.0 } else { 0.0 };
+        (trunc_i64(f), x - f)
+    }
+}
+
+/// `y` truncated toward zero, for |y| < 2^63 (outside that, some wrong but defined
+/// value: callers range-check first). On x86_64 one instruction, without the saturation
+/// handling of `as`.
+#[inline(always)]
+fn trunc_i64(y: f64) -> i64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE2 is part of the x86_64 baseline; the conversion has no
+        // preconditions (out of range and NaN give i64::MIN).
+        unsafe { core::arch::x86_64::_mm_cvttsd_si64(core::arch::x86_64::_mm_set_sd(y)) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        y as i64
     }
 }
 
@@ -238,30 +264,34 @@ impl Kernel<4> for Bspln3 {
             T::zero()
         }
     }
-    // Closed forms of K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1).
+    const CUBIC4: Option<[[[f32; 4]; 4]; 2]> = Some(BSPLN3_CUBICS);
     #[inline(always)]
     fn weights(a: f64) -> [f32; 4] {
-        const SIXTH: f64 = 1.0 / 6.0;
-        let (a2, a3) = (a * a, a * a * a);
-        let b = 1.0 - a;
-        [
-            (b * b * b * SIXTH) as f32,
-            ((3.0 * a3 - 6.0 * a2 + 4.0) * SIXTH) as f32,
-            ((-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * SIXTH) as f32,
-            (a3 * SIXTH) as f32,
-        ]
+        horner4(&BSPLN3_CUBICS[0], a as f32)
     }
     #[inline(always)]
     fn weights_d1(a: f64) -> [f32; 4] {
-        let b = 1.0 - a;
-        [
-            (-b * b / 2.0) as f32,
-            (1.5 * a * a - 2.0 * a) as f32,
-            (-1.5 * a * a + a + 0.5) as f32,
-            (a * a / 2.0) as f32,
-        ]
+        horner4(&BSPLN3_CUBICS[1], a as f32)
     }
 }
+
+const S6: f32 = 1.0 / 6.0;
+/// bspln3's K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1) and their derivatives, in
+/// powers of a (coefficients exact in binary except 1/6 and 2/3).
+const BSPLN3_CUBICS: [[[f32; 4]; 4]; 2] = [
+    [
+        [S6, 2.0 / 3.0, S6, 0.0],
+        [-0.5, 0.0, 0.5, 0.0],
+        [0.5, -1.0, 0.5, 0.0],
+        [-S6, 0.5, -0.5, S6],
+    ],
+    [
+        [-0.5, 0.0, 0.5, 0.0],
+        [1.0, -2.0, 1.0, 0.0],
+        [-0.5, 1.5, -1.5, 0.5],
+        [0.0; 4],
+    ],
+];
 
 impl Kernel<4> for Ctmr {
     const NAME: KernelName = KernelName::Ctmr;
@@ -296,26 +326,41 @@ impl Kernel<4> for Ctmr {
         }
     }
     // Closed forms of K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1).
+    const CUBIC4: Option<[[[f32; 4]; 4]; 2]> = Some(CTMR_CUBICS);
     #[inline(always)]
     fn weights(a: f64) -> [f32; 4] {
-        let (a2, a3) = (a * a, a * a * a);
-        [
-            ((-a3 + 2.0 * a2 - a) * 0.5) as f32,
-            ((3.0 * a3 - 5.0 * a2 + 2.0) * 0.5) as f32,
-            ((-3.0 * a3 + 4.0 * a2 + a) * 0.5) as f32,
-            ((a3 - a2) * 0.5) as f32,
-        ]
+        horner4(&CTMR_CUBICS[0], a as f32)
     }
     #[inline(always)]
     fn weights_d1(a: f64) -> [f32; 4] {
-        let a2 = a * a;
-        [
-            ((-3.0 * a2 + 4.0 * a - 1.0) / 2.0) as f32,
-            ((9.0 * a2 - 10.0 * a) / 2.0) as f32,
-            ((-9.0 * a2 + 8.0 * a + 1.0) / 2.0) as f32,
-            ((3.0 * a2 - 2.0 * a) / 2.0) as f32,
-        ]
+        horner4(&CTMR_CUBICS[1], a as f32)
     }
+}
+
+/// ctmr's K(a + 1), K(a), K(a - 1), K(a - 2) for a in [0, 1) and their derivatives, in
+/// powers of a (all coefficients exact in binary).
+const CTMR_CUBICS: [[[f32; 4]; 4]; 2] = [
+    [
+        [0.0, 1.0, 0.0, 0.0],
+        [-0.5, 0.0, 0.5, 0.0],
+        [1.0, -2.5, 2.0, -0.5],
+        [-0.5, 1.5, -1.5, 0.5],
+    ],
+    [
+        [-0.5, 0.0, 0.5, 0.0],
+        [2.0, -5.0, 4.0, -1.0],
+        [-1.5, 4.5, -4.5, 1.5],
+        [0.0; 4],
+    ],
+];
+
+/// Four cubic weight polynomials at once, in f32: `co[d][i]` is the coefficient of a^d
+/// in weight i. Horner's rule lane by lane (the four lanes vectorize); the cubics of
+/// the support-4 kernels are well conditioned on [0, 1), so f32 keeps them within a few
+/// ulps of 1.
+#[inline(always)]
+pub fn horner4(co: &[[f32; 4]; 4], a: f32) -> [f32; 4] {
+    core::array::from_fn(|i| ((co[3][i] * a + co[2][i]) * a + co[1][i]) * a + co[0][i])
 }
 
 /// Evaluates the polynomial with coefficients `co` (constant first) at `t` (Horner).
@@ -602,7 +647,8 @@ mod tests {
         }
     }
 
-    /// The closed-form weights of tent, bspln3 and ctmr equal the piecewise definitions.
+    /// The closed-form weights of tent, bspln3 and ctmr equal the piecewise definitions
+    /// (to a few f32 ulps).
     #[test]
     fn closed_form_weights_match_definition() {
         fn generic<K: Kernel<S>, const S: usize>(a: f64, d: u32) -> [f32; S] {
@@ -619,8 +665,11 @@ mod tests {
                     (K::weights_d1(a), generic::<K, S>(a, 1)),
                 ] {
                     for i in 0..S {
+                        // Cubic kernels evaluate in f32: within a few ulps of the f64
+                        // definition rounded to f32.
+                        let tol = 4.0 * f32::EPSILON * slow[i].abs().max(1.0);
                         assert!(
-                            (fast[i] - slow[i]).abs() < 2e-7,
+                            (fast[i] - slow[i]).abs() <= tol,
                             "{:?} a={a}: {fast:?} vs {slow:?}",
                             K::NAME
                         );

@@ -8,7 +8,7 @@ use alloc::vec::Vec;
 
 use crate::blend::{Accum, Blend};
 use crate::camera::{Camera, CameraSpec};
-use crate::convo::{Convo, ConvoSample};
+use crate::convo::{grad_to_world, Convo, ConvoSample, INDEX_LIMIT};
 use crate::error::{Error, ErrorKind, Result};
 use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
@@ -52,6 +52,10 @@ pub struct RenderParams {
     /// Skip the convolution where the LUT opacity is zero for every reachable value
     /// (`over` only; exact).
     pub skip_empty: bool,
+    /// Use the accelerated ray loop where it applies (probes read from the convolution):
+    /// each ray's inside stretch is found up front and only it is sampled. Exact: the
+    /// output is bit-identical to the plain loop.
+    pub fast_loop: bool,
 }
 
 impl RenderParams {
@@ -71,6 +75,7 @@ impl RenderParams {
             dcf: [1.0; 3],
             time: false,
             skip_empty: true,
+            fast_loop: true,
         }
     }
 }
@@ -300,31 +305,48 @@ impl RenderSpec<'_> {
             Probe::GradVec => out[..3].copy_from_slice(&cs.grad_w),
             Probe::GradMag => out[0] = gmag(&cs.grad_w),
             Probe::Rgba | Probe::RgbaLit => {
-                let Some(lut) = self.lut else { return false };
-                let e = lut.lookup(cs.value);
-                let mut a = e[3];
-                if let Some(lev) = self.levoy {
-                    a *= lev.opacity(cs.value, gmag(&cs.grad_w));
-                }
-                let a = a.clamp(0.0, 1.0);
-                let a = if a == 0.0 || a == 1.0 {
-                    a
-                } else {
-                    let ex = (g.step_len / p.unit_step) as f32;
-                    1.0 - math::powf(1.0 - a, ex)
-                };
-                let mut rgb = [e[0], e[1], e[2]];
-                if p.probe == Probe::RgbaLit {
-                    rgb = blinn_phong(&p.phong, &self.lights, rgb, cs.grad_w, g.to_eye);
-                    let cam = &self.camera;
-                    let tau = ((-pos_v[2] - cam.ncv) / (cam.fcv - cam.ncv)) as f32;
-                    for c in 0..3 {
-                        rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
-                    }
-                }
-                *out = [rgb[0], rgb[1], rgb[2], a];
+                let cam = &self.camera;
+                let tau = || ((-pos_v[2] - cam.ncv) / (cam.fcv - cam.ncv)) as f32;
+                return self.colour(cs.value, &cs.grad_w, g, tau, out);
             }
         }
+        true
+    }
+
+    /// The rgba / rgbalit probe for value `v` and world gradient `gw`; `tau` gives the
+    /// depth-cue position (0 at the near plane, 1 at the far plane) when lighting.
+    #[inline(always)]
+    fn colour(
+        &self,
+        v: f32,
+        gw: &[f32; 3],
+        g: &RayGeom,
+        tau: impl FnOnce() -> f32,
+        out: &mut [f32; 4],
+    ) -> bool {
+        let p = &self.params;
+        let Some(lut) = self.lut else { return false };
+        let e = lut.lookup(v);
+        let mut a = e[3];
+        if let Some(lev) = self.levoy {
+            a *= lev.opacity(v, gmag(gw));
+        }
+        let a = a.clamp(0.0, 1.0);
+        let a = if a == 0.0 || a == 1.0 {
+            a
+        } else {
+            let ex = (g.step_len / p.unit_step) as f32;
+            1.0 - math::powf(1.0 - a, ex)
+        };
+        let mut rgb = [e[0], e[1], e[2]];
+        if p.probe == Probe::RgbaLit {
+            rgb = blinn_phong(&p.phong, &self.lights, rgb, *gw, g.to_eye);
+            let tau = tau();
+            for c in 0..3 {
+                rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+            }
+        }
+        *out = [rgb[0], rgb[1], rgb[2], a];
         true
     }
 
@@ -435,6 +457,217 @@ impl RenderSpec<'_> {
         acc.finish(p.outside, out);
     }
 
+    /// Whether [`RenderSpec::cast_fast`] applies: asked for, and a probe that is only
+    /// counted inside the volume.
+    fn fast_applies(&self) -> bool {
+        self.params.fast_loop && self.probe_counts_inside_only()
+    }
+
+    /// Whether the probe is blended only at samples inside the volume.
+    fn probe_counts_inside_only(&self) -> bool {
+        matches!(
+            self.params.probe,
+            Probe::Value | Probe::GradVec | Probe::GradMag | Probe::Rgba | Probe::RgbaLit
+        )
+    }
+
+    /// The number of samples the plain loop takes on ray `g` before the far plane ends
+    /// it: it samples k = 0, 1, … up to (not including) the first k > 0 whose view depth
+    /// is past the far plane or that exceeds the sample bound.
+    fn ray_end(&self, g: &RayGeom) -> u32 {
+        if self.once {
+            return 1;
+        }
+        let p = &self.params;
+        let cam = &self.camera;
+        let kmax = ((cam.fcv - cam.ncv) / p.plane_sep.max(f64::MIN_POSITIVE))
+            .min(MAX_SAMPLES_PER_RAY) as u32
+            + 1;
+        // -z(k) never decreases (the step points away from the eye), so the stopping
+        // condition is false … false true … true over k = 1 ..= kmax + 1.
+        let (s, d) = (g.start_v[2], g.step_v[2]);
+        first_true(1, kmax + 1, |k| -(s + k as f64 * d) > cam.fcv)
+    }
+
+    /// Samples k in [lo, hi) of ray `g` (of `kend` samples) are exactly those whose
+    /// kernel support is inside the volume, or None when the ray's index-space geometry
+    /// is unusual (non-finite or huge), for the plain loop to handle.
+    fn inside_span<K: Kernel<S>, const S: usize>(
+        sizes: [usize; 3],
+        start_i: &[f64; 3],
+        step_i: &[f64; 3],
+        kend: u32,
+    ) -> Option<(u32, u32)> {
+        const BIG: f64 = 1e14;
+        let (mut lo, mut hi) = (0u32, kend);
+        for a in 0..3 {
+            let (s, d) = (start_i[a], step_i[a]);
+            if !(s.abs() < BIG && d.abs() < BIG) {
+                return None;
+            }
+            // -1 below the inside range on this axis, 0 in it, +1 above; monotone in k
+            // because x(k) = s + k d is (rounding is monotone) and so is the floor.
+            let class = |k: u32| -> i32 {
+                let x = s + k as f64 * d;
+                if !(x > -INDEX_LIMIT) {
+                    return -1;
+                }
+                if !(x < INDEX_LIMIT) {
+                    return 1;
+                }
+                let first = K::base(x).0 + K::LO as i64;
+                if first < 0 {
+                    -1
+                } else if first + S as i64 > sizes[a] as i64 {
+                    1
+                } else {
+                    0
+                }
+            };
+            let (a0, a1) = if d > 0.0 {
+                (
+                    first_true(0, kend, |k| class(k) >= 0),
+                    first_true(0, kend, |k| class(k) > 0),
+                )
+            } else if d < 0.0 {
+                (
+                    first_true(0, kend, |k| class(k) <= 0),
+                    first_true(0, kend, |k| class(k) < 0),
+                )
+            } else if class(0) == 0 {
+                (0, kend)
+            } else {
+                (0, 0)
+            };
+            lo = lo.max(a0);
+            hi = hi.min(a1);
+        }
+        Some((lo, hi.max(lo)))
+    }
+
+    /// [`RenderSpec::cast_skip`], with the same result bit for bit, faster for the
+    /// probes counted only inside the volume (value, gradient, colour): the ray's inside
+    /// stretch is found by bisection on the exact per-sample conditions and only its
+    /// samples are taken, in batches, without per-sample bounds tests or unused
+    /// positions. Other probes go to the plain loop.
+    pub fn cast_fast<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        convo: &mut Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+    ) {
+        if !self.probe_counts_inside_only() {
+            return self.cast_skip(convo, skip, hi, vi, out, None);
+        }
+        if self.need_grad {
+            self.cast_fast_g::<V, K, S, true>(convo, skip, hi, vi, out);
+        } else {
+            self.cast_fast_g::<V, K, S, false>(convo, skip, hi, vi, out);
+        }
+    }
+
+    /// [`RenderSpec::cast_fast`] with whether the gradient is needed known at compile
+    /// time.
+    #[inline(always)]
+    fn cast_fast_g<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+        &self,
+        convo: &mut Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+    ) {
+        let p = &self.params;
+        let g = self.ray_geom(hi, vi);
+        let wtoi = *convo.volume().wtoi();
+        let start_i = wtoi.point(g.start_w);
+        let step_i = wtoi.vector(g.step_w);
+        let kend = self.ray_end(&g);
+        let sizes = convo.volume().sizes();
+        let Some((k0, k1)) = Self::inside_span::<K, S>(sizes, &start_i, &step_i, kend) else {
+            return self.cast_skip(convo, skip, hi, vi, out, None);
+        };
+        let over = p.blend == Blend::Over;
+        let skip = if over { skip } else { None };
+        let mut acc = Accum::new(p.blend, p.probe.length());
+        let cam = &self.camera;
+        let pos = |k: u32| {
+            let kf = k as f64;
+            Convo::<V, K, S>::locate([
+                start_i[0] + kf * step_i[0],
+                start_i[1] + kf * step_i[1],
+                start_i[2] + kf * step_i[2],
+            ])
+        };
+        // Probes and blends one convolved sample; true when the ray is finished.
+        let gmat = convo.grad_matrix();
+        let take = |acc: &mut Accum, k: u32, r: [f32; 4]| -> bool {
+            let (v, gw) = if G {
+                (r[0], grad_to_world(&gmat, [r[1], r[2], r[3]]))
+            } else {
+                (r[0], [0.0; 3])
+            };
+            let mut pr = [0.0f32; 4];
+            match p.probe {
+                Probe::Value => pr[0] = v,
+                Probe::GradMag => pr[0] = gmag(&gw),
+                Probe::GradVec => pr[..3].copy_from_slice(&gw),
+                _ => {
+                    let tau = || {
+                        let z = g.start_v[2] + k as f64 * g.step_v[2];
+                        ((-z - cam.ncv) / (cam.fcv - cam.ncv)) as f32
+                    };
+                    if !self.colour(v, &gw, &g, tau, &mut pr) {
+                        return false;
+                    }
+                }
+            }
+            acc.add(&pr);
+            if over && acc.acc[3] > p.alpha_near1 {
+                acc.acc[3] = 1.0;
+                return true;
+            }
+            false
+        };
+        let empty = |n: [i64; 3]| skip.is_some_and(|sk| sk.empty_at(n));
+        // Batches of LANES samples (convolved phase by phase, see Convo::sums_n),
+        // blended in order; the rest one by one.
+        const LANES: usize = 8;
+        let mut k = k0;
+        let mut nb = [[0i64; 3]; LANES];
+        let mut al = [[0.0f64; 3]; LANES];
+        let mut res = [[0.0f32; 4]; LANES];
+        'ray: while k < k1 {
+            if k1 - k >= LANES as u32 {
+                let mut any_empty = false;
+                for i in 0..LANES {
+                    (nb[i], al[i]) = pos(k + i as u32);
+                    any_empty |= empty(nb[i]);
+                }
+                if !any_empty {
+                    convo.sums_n::<G, LANES>(&nb, &al, &mut res);
+                    for (i, r) in res.iter().enumerate() {
+                        if take(&mut acc, k + i as u32, *r) {
+                            break 'ray;
+                        }
+                    }
+                    k += LANES as u32;
+                    continue;
+                }
+            }
+            let (n, a) = pos(k);
+            if empty(n) {
+                acc.add(&[0.0; 4]);
+            } else if take(&mut acc, k, convo.sums::<G>(n, a)) {
+                break;
+            }
+            k += 1;
+        }
+        acc.finish(p.outside, out);
+    }
+
     /// Renders image rows `rows` into `out` (`channels` floats per pixel, rows
     /// consecutive). `clock`, when given, returns milliseconds and fills the time channel.
     pub fn render_rows<V: Voxel, K: Kernel<S>, const S: usize>(
@@ -448,18 +681,37 @@ impl RenderSpec<'_> {
         let w = self.size()[0] as usize;
         let ch = self.channels;
         let plen = self.params.probe.length();
+        let fast = self.fast_applies();
         debug_assert_eq!(out.len(), rows.len() * w * ch);
         for (r, vi) in rows.enumerate() {
             for hi in 0..w {
                 let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
                 let t0 = clock.map(|c| c());
-                self.cast_skip(convo, skip, hi as u32, vi, &mut px[..plen], None);
+                if fast {
+                    self.cast_fast(convo, skip, hi as u32, vi, &mut px[..plen]);
+                } else {
+                    self.cast_skip(convo, skip, hi as u32, vi, &mut px[..plen], None);
+                }
                 if let (Some(c), Some(t0)) = (clock, t0) {
                     px[plen] = (c() - t0) as f32;
                 }
             }
         }
     }
+}
+
+/// The first k in [lo, hi) where `pred` holds, for a predicate that is false then true
+/// over the range; `hi` when it never holds.
+fn first_true(mut lo: u32, mut hi: u32, pred: impl Fn(u32) -> bool) -> u32 {
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if pred(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
 }
 
 #[inline(always)]

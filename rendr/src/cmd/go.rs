@@ -151,7 +151,15 @@ pub static SPEC: CmdSpec = CmdSpec {
                 1,
                 "true",
                 "bool",
-                "empty-space skipping for over (exact; false = the plain path)",
+                "empty-space skipping for over (exact; false = convolve every sample)",
+            ),
+            def(
+                &["fast"],
+                1,
+                "true",
+                "bool",
+                "accelerated ray loop: sample only each ray's inside stretch, batched \
+                 (exact; false = the plain reference loop)",
             ),
             opt(&["q"], 2, "min max", "quantization range for PNG output"),
             opt(
@@ -274,6 +282,7 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
     params.dcf = a.get_arr("dcf")?;
     params.time = a.flag("t");
     params.skip_empty = a.get("ess")?;
+    params.fast_loop = a.get("fast")?;
     let threads = match a.given("nt") {
         true => a.get::<usize>("nt")?,
         false => rnd_std::parallel::default_threads(),
