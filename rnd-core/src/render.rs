@@ -94,6 +94,9 @@ pub struct RenderSpec<'a> {
     pub channels: usize,
     need_grad: bool,
     once: bool,
+    /// Opacity-corrected LUT alphas for one correction exponent (see
+    /// [`RenderSpec::colour`]), when every ray shares it (orthographic cameras).
+    alpha_table: Option<(f32, Vec<f32>)>,
 }
 
 fn rerr(msg: alloc::string::String) -> Error {
@@ -178,7 +181,7 @@ impl<'a> RenderSpec<'a> {
             || (params.probe == Probe::Rgba && levoy.is_some());
         let channels = params.probe.length() + usize::from(params.time);
         let lights = WorldLights::new(lights, &camera);
-        Ok(RenderSpec {
+        let mut spec = RenderSpec {
             params,
             camera,
             lut,
@@ -187,7 +190,22 @@ impl<'a> RenderSpec<'a> {
             channels,
             need_grad,
             once,
-        })
+            alpha_table: None,
+        };
+        // Orthographic rays all step the same length, so the corrected opacity of each
+        // LUT entry can be computed once (not for Levoy, which scales alpha per sample).
+        if let (Some(lut), None, true) = (lut, levoy, spec.camera.spec.ortho) {
+            if lut.entries().len() <= 1 << 16 {
+                let ex = spec.ray_geom(0, 0).alpha_exp;
+                let t = lut
+                    .entries()
+                    .iter()
+                    .map(|e| correct_alpha(e[3], ex))
+                    .collect();
+                spec.alpha_table = Some((ex, t));
+            }
+        }
+        Ok(spec)
     }
 
     /// Image width and height.
@@ -226,6 +244,8 @@ pub struct RayGeom {
     pub step_w: [f64; 3],
     /// Length of one step (world units).
     pub step_len: f64,
+    /// Opacity-correction exponent: step length over the unit step (`-us`).
+    pub alpha_exp: f32,
     /// Unit direction from a sample towards the eye (world).
     pub to_eye: [f32; 3],
 }
@@ -269,12 +289,14 @@ impl RenderSpec<'_> {
             (-dir_w[2] / dl) as f32,
         ];
         let step_w = cam.vtow.vector(step_v);
+        let step_len = math::v3::len(step_w);
         RayGeom {
             start_v,
             step_v,
             start_w: cam.vtow.point(start_v),
             step_w,
-            step_len: math::v3::len(step_w),
+            step_len,
+            alpha_exp: (step_len / self.params.unit_step) as f32,
             to_eye,
         }
     }
@@ -326,18 +348,23 @@ impl RenderSpec<'_> {
     ) -> bool {
         let p = &self.params;
         let Some(lut) = self.lut else { return false };
-        let e = lut.lookup(v);
-        let mut a = e[3];
-        if let Some(lev) = self.levoy {
-            a *= lev.opacity(v, gmag(gw));
-        }
-        let a = a.clamp(0.0, 1.0);
-        let a = if a == 0.0 || a == 1.0 {
-            a
-        } else {
-            let ex = (g.step_len / p.unit_step) as f32;
-            1.0 - math::powf(1.0 - a, ex)
+        let i = lut.index(v as f64);
+        let e = lut.entries()[i];
+        let a = match (&self.alpha_table, self.levoy) {
+            (Some((ex, t)), None) if *ex == g.alpha_exp => t[i],
+            (_, lev) => {
+                let a = match lev {
+                    Some(lev) => e[3] * lev.opacity(v, gmag(gw)),
+                    None => e[3],
+                };
+                correct_alpha(a, g.alpha_exp)
+            }
         };
+        if a == 0.0 && p.blend == Blend::Over {
+            // Adds nothing under `over`: no need to light it.
+            *out = [0.0; 4];
+            return true;
+        }
         let mut rgb = [e[0], e[1], e[2]];
         if p.probe == Probe::RgbaLit {
             rgb = blinn_phong(&p.phong, &self.lights, rgb, *gw, g.to_eye);
@@ -633,37 +660,37 @@ impl RenderSpec<'_> {
         };
         let empty = |n: [i64; 3]| skip.is_some_and(|sk| sk.empty_at(n));
         // Batches of LANES samples (convolved phase by phase, see Convo::sums_n),
-        // blended in order; the rest one by one.
+        // blended in order. Samples in empty blocks are not convolved: blending them
+        // (opacity 0 under `over`) changes nothing but the count, so they are counted
+        // where they are met and the batch is filled with the next samples.
         const LANES: usize = 8;
         let mut k = k0;
         let mut nb = [[0i64; 3]; LANES];
         let mut al = [[0.0f64; 3]; LANES];
+        let mut ks = [0u32; LANES];
         let mut res = [[0.0f32; 4]; LANES];
-        'ray: while k < k1 {
-            if k1 - k >= LANES as u32 {
-                let mut any_empty = false;
-                for i in 0..LANES {
-                    (nb[i], al[i]) = pos(k + i as u32);
-                    any_empty |= empty(nb[i]);
+        while k < k1 {
+            let mut m = 0;
+            while m < LANES && k < k1 {
+                let (n, a) = pos(k);
+                if empty(n) {
+                    acc.add(&[0.0; 4]);
+                } else {
+                    (nb[m], al[m], ks[m]) = (n, a, k);
+                    m += 1;
                 }
-                if !any_empty {
-                    convo.sums_n::<G, LANES>(&nb, &al, &mut res);
-                    for (i, r) in res.iter().enumerate() {
-                        if take(&mut acc, k + i as u32, *r) {
-                            break 'ray;
-                        }
-                    }
-                    k += LANES as u32;
-                    continue;
+                k += 1;
+            }
+            if m == LANES {
+                convo.sums_n::<G, LANES>(&nb, &al, &mut res);
+            } else {
+                for i in 0..m {
+                    res[i] = convo.sums::<G>(nb[i], al[i]);
                 }
             }
-            let (n, a) = pos(k);
-            if empty(n) {
-                acc.add(&[0.0; 4]);
-            } else if take(&mut acc, k, convo.sums::<G>(n, a)) {
+            if (0..m).any(|i| take(&mut acc, ks[i], res[i])) {
                 break;
             }
-            k += 1;
         }
         acc.finish(p.outside, out);
     }
@@ -697,6 +724,18 @@ impl RenderSpec<'_> {
                 }
             }
         }
+    }
+}
+
+/// Opacity `a` clamped to [0, 1] and corrected for a step of `ex` unit steps:
+/// 1 − (1 − a)^ex (0 and 1 are kept as they are).
+#[inline]
+fn correct_alpha(a: f32, ex: f32) -> f32 {
+    let a = a.clamp(0.0, 1.0);
+    if a == 0.0 || a == 1.0 {
+        a
+    } else {
+        1.0 - math::powf(1.0 - a, ex)
     }
 }
 
