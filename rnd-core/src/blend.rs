@@ -104,6 +104,14 @@ impl Accum {
         }
     }
 
+    /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
+    /// [`Accum::add`] of `[0.0; 4]` does `n` times).
+    #[inline(always)]
+    pub fn add_transparent(&mut self, n: u32) {
+        debug_assert_eq!(self.blend, Blend::Over);
+        self.count += n;
+    }
+
     /// Opacity so far (`over` only).
     #[inline(always)]
     pub fn alpha(&self) -> f32 {

@@ -18,6 +18,11 @@ pub fn sqrtf(x: f32) -> f32 {
 pub fn floor(x: f64) -> f64 {
     libm::floor(x)
 }
+/// Smallest integer ≥ `x` (f64).
+#[inline(always)]
+pub fn ceil(x: f64) -> f64 {
+    libm::ceil(x)
+}
 /// `x` raised to `y` (f64).
 #[inline(always)]
 pub fn pow(x: f64, y: f64) -> f64 {

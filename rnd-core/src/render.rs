@@ -572,6 +572,56 @@ impl RenderSpec<'_> {
         Some((lo, hi.max(lo)))
     }
 
+    /// The last sample in [k, k1) of the ray `start_i + k step_i` (index space) whose
+    /// support start lies in the same skip block as sample k's, `n`. An estimate from
+    /// the block's faces is checked with the exact sample positions (block membership is
+    /// monotone along the ray on each axis, so the samples between two members are
+    /// members) and bisected down when it overshoots.
+    fn block_run_end<K: Kernel<S>, const S: usize>(
+        &self,
+        sk: &SkipGrid,
+        start_i: &[f64; 3],
+        step_i: &[f64; 3],
+        k: u32,
+        k1: u32,
+        n: [i64; 3],
+    ) -> u32 {
+        let blk = sk.block_of(n);
+        let in_block = |j: u32| {
+            let jf = j as f64;
+            let p = core::array::from_fn(|a| start_i[a] + jf * step_i[a]);
+            sk.block_of(Convo::<f32, K, S>::locate(p).0) == blk
+        };
+        // Support start n = floor(x + off) + LO, so the block's starts [f, l] are the
+        // positions x in [f − LO − off, l + 1 − LO − off).
+        let off = if S % 2 == 0 { 0.0 } else { 0.5 };
+        let mut est = (k1 - 1) as f64;
+        for a in 0..3 {
+            let [f, l] = SkipGrid::block_span(blk[a]);
+            let lo = f as f64 - K::LO as f64 - off;
+            let hi = (l + 1) as f64 - K::LO as f64 - off;
+            let (s, d) = (start_i[a], step_i[a]);
+            let last = if d > 0.0 {
+                math::ceil((hi - s) / d) - 1.0
+            } else if d < 0.0 {
+                math::floor((lo - s) / d)
+            } else {
+                continue;
+            };
+            est = est.min(last);
+        }
+        let est = if est.is_finite() && est > k as f64 {
+            (est as u32).min(k1 - 1)
+        } else {
+            k
+        };
+        if in_block(est) {
+            est
+        } else {
+            first_true(k + 1, est, |j| !in_block(j)) - 1
+        }
+    }
+
     /// [`RenderSpec::cast_skip`], with the same result bit for bit, faster for the
     /// probes counted only inside the volume (value, gradient, colour): the ray's inside
     /// stretch is found by bisection on the exact per-sample conditions and only its
@@ -658,7 +708,6 @@ impl RenderSpec<'_> {
             }
             false
         };
-        let empty = |n: [i64; 3]| skip.is_some_and(|sk| sk.empty_at(n));
         // Batches of LANES samples (convolved phase by phase, see Convo::sums_n),
         // blended in order. Samples in empty blocks are not convolved: blending them
         // (opacity 0 under `over`) changes nothing but the count, so they are counted
@@ -673,8 +722,12 @@ impl RenderSpec<'_> {
             let mut m = 0;
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
-                if empty(n) {
-                    acc.add(&[0.0; 4]);
+                if let Some(sk) = skip.filter(|sk| sk.empty_at(n)) {
+                    // Every sample up to the last one in this block is empty too.
+                    let last = self.block_run_end::<K, S>(sk, &start_i, &step_i, k, k1, n);
+                    acc.add_transparent(last - k + 1);
+                    k = last + 1;
+                    continue;
                 } else {
                     (nb[m], al[m], ks[m]) = (n, a, k);
                     m += 1;

@@ -52,25 +52,51 @@ impl SkipGrid {
             let last = *nz.last().unwrap_or(&0);
             nz.push(last + u32::from(x[3] != 0.0));
         }
-        let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
+        // Min and max over each block's support range (the block's bases plus S − 1
+        // more voxels per axis), separably: along x for every row, then along y, then
+        // along z. A NaN voxel makes its range (−∞, ∞), so that block is never empty.
+        let range = |b: usize, a: usize| (b * B)..((b + 1) * B + s - 1).min(sizes[a]);
+        let mm = |acc: (f32, f32), x: (f32, f32)| (acc.0.min(x.0), acc.1.max(x.1));
+        let none = (f32::INFINITY, f32::NEG_INFINITY);
         let data = vol.data();
+        let (s0, s1, s2) = (sizes[0], sizes[1], sizes[2]);
+        // x: [bi][j][k] → (bi + nb0 (j + s1 k))
+        let mut px = alloc::vec![none; nb[0] * s1 * s2];
+        for jk in 0..s1 * s2 {
+            let row = &data[jk * s0..(jk + 1) * s0];
+            for bi in 0..nb[0] {
+                let mut r = none;
+                for v in &row[range(bi, 0)] {
+                    let v = v.to_f32();
+                    r = if v.is_nan() {
+                        (f32::NEG_INFINITY, f32::INFINITY)
+                    } else {
+                        mm(r, (v, v))
+                    };
+                }
+                px[bi + nb[0] * jk] = r;
+            }
+        }
+        // y: [bi][bj][k]
+        let mut py = alloc::vec![none; nb[0] * nb[1] * s2];
+        for k in 0..s2 {
+            for bj in 0..nb[1] {
+                for bi in 0..nb[0] {
+                    py[bi + nb[0] * (bj + nb[1] * k)] = range(bj, 1)
+                        .map(|j| px[bi + nb[0] * (j + s1 * k)])
+                        .fold(none, mm);
+                }
+            }
+        }
+        // z, and the verdict.
+        let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
         for bk in 0..nb[2] {
             for bj in 0..nb[1] {
                 for bi in 0..nb[0] {
-                    let range = |b: usize, a: usize| (b * B)..((b + 1) * B + s - 1).min(sizes[a]);
-                    let (mut m, mut mx, mut nan) = (f32::INFINITY, f32::NEG_INFINITY, false);
-                    for k in range(bk, 2) {
-                        for j in range(bj, 1) {
-                            let row = sizes[0] * (j + sizes[1] * k);
-                            for i in range(bi, 0) {
-                                let v = data[row + i].to_f32();
-                                nan |= v.is_nan();
-                                m = m.min(v);
-                                mx = mx.max(v);
-                            }
-                        }
-                    }
-                    if nan || !(m <= mx) || !m.is_finite() || !mx.is_finite() {
+                    let (m, mx) = range(bk, 2)
+                        .map(|k| py[bi + nb[0] * (bj + nb[1] * k)])
+                        .fold(none, mm);
+                    if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
                         continue;
                     }
                     let (m, mx) = (m as f64, mx as f64);
@@ -91,6 +117,18 @@ impl SkipGrid {
     pub fn empty_at(&self, lo: [i64; 3]) -> bool {
         let b = [lo[0] as usize / B, lo[1] as usize / B, lo[2] as usize / B];
         self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
+    }
+
+    /// The block holding support start `lo` (three block coordinates).
+    #[inline(always)]
+    pub fn block_of(&self, lo: [i64; 3]) -> [i64; 3] {
+        lo.map(|x| x.div_euclid(B as i64))
+    }
+
+    /// The support starts of block coordinate `b` on any axis: `[first, last]`.
+    #[inline(always)]
+    pub fn block_span(b: i64) -> [i64; 2] {
+        [b * B as i64, b * B as i64 + B as i64 - 1]
     }
 
     /// Fraction of blocks marked empty.
