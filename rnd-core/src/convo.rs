@@ -199,35 +199,32 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
                 self.sizes[0] as usize,
                 (self.sizes[0] * self.sizes[1]) as usize,
             );
-            let mut base = [0usize; N];
-            let mut w = [[sse::zero(); 3]; N];
-            let mut d = [[sse::zero(); 3]; N];
-            for i in 0..N {
+            let base: [usize; N] = core::array::from_fn(|i| {
                 let n = n[i];
                 let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
                 // The support's last voxel; every row below ends at or before it.
                 assert!(b + 3 + 3 * s0 + 3 * s01 < data.len());
-                base[i] = b;
-                for a in 0..3 {
-                    let x = alpha[i][a];
-                    match K::CUBIC4 {
-                        Some(co) => {
-                            w[i][a] = sse::horner(&co[0], x as f32);
-                            if G {
-                                d[i][a] = sse::horner(&co[1], x as f32);
-                            }
-                        }
-                        None => {
-                            let v = K::weights(x);
-                            w[i][a] = sse::load(&[v[0], v[1], v[2], v[3]]);
-                            if G {
-                                let v = K::weights_d1(x);
-                                d[i][a] = sse::load(&[v[0], v[1], v[2], v[3]]);
-                            }
-                        }
+                b
+            });
+            let weights = |i: usize, a: usize, d: usize| -> sse::F4 {
+                let x = alpha[i][a];
+                match K::CUBIC4 {
+                    Some(co) => sse::horner(&co[d], x as f32),
+                    None => {
+                        let v = if d == 0 {
+                            K::weights(x)
+                        } else {
+                            K::weights_d1(x)
+                        };
+                        sse::load(&[v[0], v[1], v[2], v[3]])
                     }
                 }
-            }
+            };
+            let w: [[sse::F4; 3]; N] =
+                core::array::from_fn(|i| core::array::from_fn(|a| weights(i, a, 0)));
+            let d: [[sse::F4; 3]; N] = core::array::from_fn(|i| {
+                core::array::from_fn(|a| if G { weights(i, a, 1) } else { sse::zero() })
+            });
             for i in 0..N {
                 let b = base[i];
                 // SAFETY: row (j, k) for j, k < 4 is the 4 voxels from b + j s0 + k s01,
@@ -346,6 +343,9 @@ pub(crate) fn sums<const S: usize, const G: bool>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod sse {
     use core::arch::x86_64::*;
+
+    /// Four f32 lanes.
+    pub(crate) type F4 = __m128;
 
     // SAFETY (every `unsafe` block here): SSE and SSE2 are part of the x86_64 baseline, so
     // the intrinsics are always available; loads and stores touch 4-entry f32 arrays.
