@@ -1,6 +1,7 @@
 //! Fuzzes a tiny render: camera, LUT, probe, blend, kernel and parameters come from the
 //! input. Validation may refuse them; what it accepts must render without panicking and
-//! give finite output unless NaN was asked for (outside value).
+//! give finite output unless NaN was asked for (outside value), and the accelerated loop
+//! must give exactly the plain loop's image.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -73,4 +74,14 @@ fuzz_target!(|data: &[u8]| {
     if p.outside.is_finite() {
         assert!(img.iter().all(|v| !v.is_nan()), "NaN output for {p:?}");
     }
+    // The accelerated loop and empty-space skipping give the plain loop's bits.
+    let mut q = p.clone();
+    q.fast_loop = false;
+    q.skip_empty = false;
+    let plain_spec = RenderSpec::new(q, lut.as_ref(), lev.as_ref(), &lights).expect("same validation");
+    let plain = render(&plain_spec, AnyVolume::F32(vol), kernel);
+    assert!(
+        img.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
+        "fast {img:?} vs plain {plain:?} for {p:?} {kernel}"
+    );
 });
