@@ -1,6 +1,7 @@
 //! Convolution throughput (divan): samples per second for each kernel × voxel type,
 //! value only and value + gradient, at points along rays through a 128³ volume.
-//! Run with `cargo bench -p rnd-tests --bench convo`.
+//! The `rays` group times whole rays of the renderer. Run with
+//! `cargo bench -p rnd-tests --bench convo`.
 
 use divan::{black_box, Bencher};
 use rnd_core::affine::Affine4;
@@ -76,4 +77,68 @@ kernel_benches! {
     bspln3: Bspln3, 4;
     ctmr: Ctmr, 4;
     c4hexic: C4Hexic, 6;
+}
+
+/// Whole rays through the 128³ volume (the accelerated loop `go` uses: inside stretch,
+/// batched convolution, probe and blend): value and gradient-magnitude MIPs, an
+/// orthographic 32×32 image looking down z with samples 0.5 voxel apart, so every ray
+/// takes the same number of inside samples. Items = inside samples.
+mod rays {
+    use super::*;
+    use rnd_core::blend::Blend;
+    use rnd_core::camera::CameraSpec;
+    use rnd_core::kernel::KernelName;
+    use rnd_core::probe::Probe;
+    use rnd_core::render::{render, AnyVolume, RenderParams, RenderSpec};
+
+    fn run_rays(b: Bencher, vol: AnyVolume<'_>, kernel: KernelName, probe: Probe) {
+        let n = N as f64;
+        let cam = CameraSpec {
+            fr: [n / 2.0, n / 2.0, 2.0 * n],
+            at: [n / 2.0, n / 2.0, n / 2.0],
+            up: [0.0, 1.0, 0.0],
+            nc: -n,
+            fc: n,
+            fov: 10.0,
+            size: [32, 32],
+            ortho: true,
+        };
+        let mut p = RenderParams::new(cam);
+        p.plane_sep = 0.5;
+        p.probe = probe;
+        p.blend = Blend::Max;
+        let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+        // Inside samples per ray: the kernel's inside range along z over the step.
+        let s = kernel.support() as f64;
+        let per_ray = ((n - s + 1.0) / 0.5) as usize;
+        b.counter(divan::counter::ItemsCount::new(32 * 32 * per_ray))
+            .bench_local(|| render(black_box(&spec), vol, kernel));
+    }
+
+    macro_rules! ray_benches {
+        ($($name:ident: $k:expr;)*) => {$(
+            mod $name {
+                use super::*;
+                #[divan::bench(args = [Probe::Value, Probe::GradMag])]
+                fn f32_voxels(b: Bencher, probe: Probe) {
+                    let d = volume(|v| v);
+                    let vol = Volume::new(&d, [N, N, N], Affine4::IDENTITY).unwrap();
+                    run_rays(b, AnyVolume::F32(vol), $k, probe);
+                }
+                #[divan::bench(args = [Probe::Value, Probe::GradMag])]
+                fn i16_voxels(b: Bencher, probe: Probe) {
+                    let d = volume(|v| v as i16);
+                    let vol = Volume::new(&d, [N, N, N], Affine4::IDENTITY).unwrap();
+                    run_rays(b, AnyVolume::I16(vol), $k, probe);
+                }
+            }
+        )*};
+    }
+
+    ray_benches! {
+        tent: KernelName::Tent;
+        bspln3: KernelName::Bspln3;
+        ctmr: KernelName::Ctmr;
+        c4hexic: KernelName::C4hexic;
+    }
 }
