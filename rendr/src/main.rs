@@ -26,6 +26,14 @@ fn list_commands() -> String {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`rendr go -db ... | head`) ends the program quietly, as it does a
+    // C tool, instead of failing a print with a panic.
+    #[cfg(unix)]
+    // SAFETY: called first thing, before any other thread exists; restoring the default
+    // disposition of SIGPIPE has no other effect on the program.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // Ctrl-C: remove any output still being written, then stop (status 130).
     let _ = ctrlc::set_handler(|| {
         rnd_std::files::remove_temp_files();

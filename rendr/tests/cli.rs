@@ -1369,3 +1369,40 @@ fn fast_loop_matches_plain_on_real_volume() {
         assert!(outs[0] == outs[1], "case {extra:?}: fast and plain differ");
     }
 }
+
+/// A reader that stops early (`rendr go -db ... | head -1`) ends rendr quietly (killed by
+/// SIGPIPE, like a C tool) rather than with a panic about a failed print.
+#[cfg(unix)]
+#[test]
+fn closed_pipe_is_not_a_panic() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let top = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    for args in [
+        &["go", "@data/head.txt", "-sz", "32", "32", "-db", "16", "16"][..],
+        &["go", "@data/head.txt", "-sz", "64", "64", "-o", "-"][..],
+    ] {
+        let mut child = rendr()
+            .current_dir(&top)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        let mut line = String::new();
+        out.read_line(&mut line).unwrap();
+        assert!(!line.is_empty());
+        drop(out);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            // 13 = SIGPIPE
+            o.status.success() || o.status.signal() == Some(13),
+            "{args:?}: {:?}",
+            o.status
+        );
+    }
+}
