@@ -55,6 +55,11 @@ pub fn acos(x: f64) -> f64 {
 }
 /// e raised to `x`.
 #[inline(always)]
+pub fn ln(x: f64) -> f64 {
+    libm::log(x)
+}
+/// e raised to `x` (f64).
+#[inline(always)]
 pub fn exp(x: f64) -> f64 {
     libm::exp(x)
 }

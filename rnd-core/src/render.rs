@@ -97,6 +97,8 @@ pub struct RenderSpec<'a> {
     /// Opacity-corrected LUT alphas for one correction exponent (see
     /// [`RenderSpec::colour`]), when every ray shares it (orthographic cameras).
     alpha_table: Option<(f32, Vec<f32>)>,
+    /// ln(1 − α) of each LUT entry's clamped opacity (see [`correct_alpha`]).
+    ln_transparency: Vec<f64>,
 }
 
 fn rerr(msg: alloc::string::String) -> Error {
@@ -191,7 +193,17 @@ impl<'a> RenderSpec<'a> {
             need_grad,
             once,
             alpha_table: None,
+            ln_transparency: Vec::new(),
         };
+        if let Some(lut) = lut {
+            if lut.entries().len() <= 1 << 20 {
+                spec.ln_transparency = lut
+                    .entries()
+                    .iter()
+                    .map(|e| ln_transparency(e[3].clamp(0.0, 1.0)))
+                    .collect();
+            }
+        }
         // Orthographic rays all step the same length, so the corrected opacity of each
         // LUT entry can be computed once (not for Levoy, which scales alpha per sample).
         if let (Some(lut), None, true) = (lut, levoy, spec.camera.spec.ortho) {
@@ -352,6 +364,9 @@ impl RenderSpec<'_> {
         let e = lut.entries()[i];
         let a = match (&self.alpha_table, self.levoy) {
             (Some((ex, t)), None) if *ex == g.alpha_exp => t[i],
+            (_, None) if i < self.ln_transparency.len() => {
+                correct_alpha_ln(e[3], self.ln_transparency[i], g.alpha_exp)
+            }
             (_, lev) => {
                 let a = match lev {
                     Some(lev) => e[3] * lev.opacity(v, gmag(gw)),
@@ -781,14 +796,27 @@ impl RenderSpec<'_> {
 }
 
 /// Opacity `a` clamped to [0, 1] and corrected for a step of `ex` unit steps:
-/// 1 − (1 − a)^ex (0 and 1 are kept as they are).
+/// 1 − (1 − a)^ex (0 and 1 are kept as they are), computed as 1 − exp(ex · ln(1 − a)) in
+/// f64 and rounded once to f32.
 #[inline]
 fn correct_alpha(a: f32, ex: f32) -> f32 {
+    correct_alpha_ln(a, ln_transparency(a.clamp(0.0, 1.0)), ex)
+}
+
+/// ln(1 − a) for an opacity `a` in [0, 1] (−∞ for a = 1).
+#[inline]
+fn ln_transparency(a: f32) -> f64 {
+    math::ln((1.0 - a) as f64)
+}
+
+/// [`correct_alpha`] given `l` = ln(1 − clamp(a)), e.g. from a per-LUT-entry table.
+#[inline]
+fn correct_alpha_ln(a: f32, l: f64, ex: f32) -> f32 {
     let a = a.clamp(0.0, 1.0);
     if a == 0.0 || a == 1.0 {
         a
     } else {
-        1.0 - math::powf(1.0 - a, ex)
+        (1.0 - math::exp(ex as f64 * l)) as f32
     }
 }
 
