@@ -56,6 +56,53 @@ fn constant_lut(rgba: [f32; 4]) -> Lut {
     Lut::new(-10.0, 10.0, vec![rgba; 16]).unwrap()
 }
 
+/// An sdg function sampled on a sheared, rotated grid, as floats and as shorts (values ×
+/// 1000), for tests that run on either voxel type.
+struct SdgVolume {
+    sizes: [usize; 3],
+    itow: Affine4,
+    f: Vec<f32>,
+    s: Vec<i16>,
+    short: bool,
+}
+
+impl SdgVolume {
+    fn new(which: u32, sizes: [usize; 3], short: bool) -> SdgVolume {
+        let g = Grid {
+            sizes,
+            lengths: [2.5; 3],
+            shear: [0.1, 0.0, -0.1],
+            rot: [0.2, 0.0, 0.3],
+            centre: [0.0; 3],
+        };
+        let (vals, itow) = sdg::generate(which, &g).unwrap();
+        SdgVolume {
+            sizes,
+            itow,
+            f: vals.iter().map(|&v| v as f32).collect(),
+            s: vals.iter().map(|&v| (v * 1000.0).round() as i16).collect(),
+            short,
+        }
+    }
+
+    /// Function units per voxel unit (1000 for shorts).
+    fn scale(&self) -> f64 {
+        if self.short {
+            1000.0
+        } else {
+            1.0
+        }
+    }
+
+    fn vol(&self) -> AnyVolume<'_> {
+        if self.short {
+            AnyVolume::I16(Volume::new(&self.s, self.sizes, self.itow).unwrap())
+        } else {
+            AnyVolume::F32(Volume::new(&self.f, self.sizes, self.itow).unwrap())
+        }
+    }
+}
+
 fn px(img: &[f32], ch: usize, w: u32, h: u32, v: u32) -> &[f32] {
     let i = (h + w * v) as usize * ch;
     &img[i..i + ch]
@@ -504,12 +551,8 @@ proptest::proptest! {
         short in proptest::bool::ANY,
     ) {
         proptest::prop_assume!(fr.iter().map(|x| x * x).sum::<f64>() > 9.0);
-        let g = Grid { sizes: [23, 19, 21], lengths: [2.5; 3], shear: [0.1, 0.0, -0.1], rot: [0.2, 0.0, 0.3], centre: [0.0; 3] };
-        let (vals, itow) = sdg::generate(which, &g).unwrap();
-        let f: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
-        let s: Vec<i16> = vals.iter().map(|&v| (v * 1000.0).round() as i16).collect();
-        let scale = if short { 1000.0 } else { 1.0 };
-        let vol = if short { AnyVolume::I16(Volume::new(&s, g.sizes, itow).unwrap()) } else { AnyVolume::F32(Volume::new(&f, g.sizes, itow).unwrap()) };
+        let sv = SdgVolume::new(which, [23, 19, 21], short);
+        let (vol, scale) = (sv.vol(), sv.scale());
         // Opacity only in [lo, lo + width] (in function units).
         let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + width / 2.0) * scale, 0.7], &[(lo + width) * scale, 0.0]]).unwrap();
         let lut = Lut::generate(None, Some(&a), false, false, 1000, -2.0 * scale, 2.0 * scale).unwrap();
@@ -743,12 +786,8 @@ proptest::proptest! {
         a1 in proptest::sample::select(vec![1.0f32, 0.9, 0.3]),
     ) {
         proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
-        let g = Grid { sizes: [13, 11, 12], lengths: [2.5; 3], shear: [0.1, 0.0, -0.1], rot: [0.2, 0.0, 0.3], centre: [0.0; 3] };
-        let (vals, itow) = sdg::generate(which, &g).unwrap();
-        let f: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
-        let s: Vec<i16> = vals.iter().map(|&v| (v * 1000.0).round() as i16).collect();
-        let scale = if short { 1000.0 } else { 1.0 };
-        let vol = if short { AnyVolume::I16(Volume::new(&s, g.sizes, itow).unwrap()) } else { AnyVolume::F32(Volume::new(&f, g.sizes, itow).unwrap()) };
+        let sv = SdgVolume::new(which, [13, 11, 12], short);
+        let (vol, scale) = (sv.vol(), sv.scale());
         let probe = [Probe::Value, Probe::GradVec, Probe::GradMag, Probe::Rgba, Probe::RgbaLit][pi];
         let blend = if probe.is_colour() { Blend::ALL[bi] } else { Blend::ALL[bi % 3] };
         let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[0.3 * scale, 0.6], &[0.6 * scale, 0.0]]).unwrap();
