@@ -79,19 +79,23 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// whole support is inside the volume (the inside rule), else None.
     #[inline(always)]
     pub fn support_start(&self, pos_i: [f64; 3]) -> Option<[i64; 3]> {
+        self.place3(pos_i).map(|(n, _)| n)
+    }
+
+    /// [`place`] on all three axes: first support indices and fractional offsets when
+    /// the support is inside on every axis.
+    #[inline(always)]
+    fn place3(&self, pos_i: [f64; 3]) -> Option<([i64; 3], [f64; 3])> {
         let mut n = [0i64; 3];
+        let mut alpha = [0.0f64; 3];
         for a in 0..3 {
-            let x = pos_i[a];
-            if !(x > -INDEX_LIMIT && x < INDEX_LIMIT) {
+            let Place::Inside(b, al) = place::<K, S>(pos_i[a], self.sizes[a]) else {
                 return None;
-            }
-            let lo = K::base(x).0 + K::LO as i64;
-            if lo < 0 || lo + S as i64 > self.sizes[a] {
-                return None;
-            }
-            n[a] = lo;
+            };
+            n[a] = b;
+            alpha[a] = al;
         }
-        Some(n)
+        Some((n, alpha))
     }
 
     /// Convolution at index-space point `pos_i`.
@@ -101,42 +105,15 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             pos_i,
             ..ConvoSample::default()
         };
-        let mut n = [0i64; 3];
-        let mut alpha = [0.0f64; 3];
-        for a in 0..3 {
-            let x = pos_i[a];
-            if !(x > -INDEX_LIMIT && x < INDEX_LIMIT) {
-                return out;
-            }
-            let (b, al) = K::base(x);
-            let lo = b + K::LO as i64;
-            if lo < 0 || lo + S as i64 > self.sizes[a] {
-                return out;
-            }
-            n[a] = lo;
-            alpha[a] = al;
-        }
+        let Some((n, alpha)) = self.place3(pos_i) else {
+            return out;
+        };
         out.inside = true;
         let (value, grad_i, grad_w) = self.convolve(n, alpha, grad);
         out.value = value;
         out.grad_i = grad_i;
         out.grad_w = grad_w;
         out
-    }
-
-    /// First support indices and fractional offsets for index-space point `pos_i`,
-    /// which the caller knows satisfies the inside rule (see [`Convo::support_start`]);
-    /// the same arithmetic as [`Convo::eval_index`].
-    #[inline(always)]
-    pub(crate) fn locate(pos_i: [f64; 3]) -> ([i64; 3], [f64; 3]) {
-        let mut n = [0i64; 3];
-        let mut alpha = [0.0f64; 3];
-        for a in 0..3 {
-            let (b, al) = K::base(pos_i[a]);
-            n[a] = b + K::LO as i64;
-            alpha[a] = al;
-        }
-        (n, alpha)
     }
 
     /// The separable sums for first support indices `n` (inside the volume) and
@@ -152,16 +129,10 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         if grad {
             let r = self.sums::<true>(n, alpha);
             let gi = [r[1], r[2], r[3]];
-            (r[0], gi, self.to_world(gi))
+            (r[0], gi, grad_to_world(&self.gmat, gi))
         } else {
             (self.sums::<false>(n, alpha)[0], [0.0; 3], [0.0; 3])
         }
-    }
-
-    /// Index-space gradient `g` to world space.
-    #[inline(always)]
-    pub(crate) fn to_world(&self, g: [f32; 3]) -> [f32; 3] {
-        grad_to_world(&self.gmat, g)
     }
 
     /// The matrix that maps index-space gradients to world space.
@@ -192,20 +163,20 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         alpha: &[[f64; 3]; N],
         out: &mut [[f32; 4]; N],
     ) {
+        let data = self.vol.data();
+        let (s0, s01) = (
+            self.sizes[0] as usize,
+            (self.sizes[0] * self.sizes[1]) as usize,
+        );
+        let base: [usize; N] = core::array::from_fn(|i| {
+            let n = n[i];
+            let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
+            // The support's last voxel; every row below ends at or before it.
+            assert!(b + (S - 1) * (1 + s0 + s01) < data.len());
+            b
+        });
         #[cfg(target_arch = "x86_64")]
         if S == 4 {
-            let data = self.vol.data();
-            let (s0, s01) = (
-                self.sizes[0] as usize,
-                (self.sizes[0] * self.sizes[1]) as usize,
-            );
-            let base: [usize; N] = core::array::from_fn(|i| {
-                let n = n[i];
-                let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
-                // The support's last voxel; every row below ends at or before it.
-                assert!(b + 3 + 3 * s0 + 3 * s01 < data.len());
-                b
-            });
             let weights = |i: usize, a: usize, d: usize| -> sse::F4 {
                 let x = alpha[i][a];
                 match K::CUBIC4 {
@@ -237,25 +208,14 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             return;
         }
         // Other supports: the same two phases, rows read from the volume and converted.
-        let data = self.vol.data();
-        let (s0, s01) = (
-            self.sizes[0] as usize,
-            (self.sizes[0] * self.sizes[1]) as usize,
-        );
-        let mut base = [0usize; N];
-        let mut w = [[[0.0f32; S]; 3]; N];
-        let mut d = [[[0.0f32; S]; 3]; N];
-        for i in 0..N {
-            let n = n[i];
-            let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
-            // The support's last voxel; every row below ends at or before it.
-            assert!(b + (S - 1) * (1 + s0 + s01) < data.len());
-            base[i] = b;
-            w[i] = alpha[i].map(K::weights);
+        let w: [[[f32; S]; 3]; N] = core::array::from_fn(|i| alpha[i].map(K::weights));
+        let d: [[[f32; S]; 3]; N] = core::array::from_fn(|i| {
             if G {
-                d[i] = alpha[i].map(K::weights_d1);
+                alpha[i].map(K::weights_d1)
+            } else {
+                [[0.0; S]; 3]
             }
-        }
+        });
         for i in 0..N {
             let b = base[i];
             let row = |j: usize, k: usize| -> [f32; S] {
@@ -267,6 +227,52 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             out[i] = sums::<S, G>(row, &w[i], &d[i]);
         }
     }
+}
+
+/// Where index coordinate `x` puts a kernel support on an axis of `size` samples (the
+/// inside rule, SPEC §7.2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Place {
+    /// The support starts before the first sample (or `x` is NaN or hugely negative).
+    Below,
+    /// Inside: first support index and fractional offset.
+    Inside(i64, f64),
+    /// The support ends after the last sample (or `x` is hugely positive).
+    Above,
+}
+
+/// The inside rule on one axis for kernel `K`.
+#[inline(always)]
+pub(crate) fn place<K: Kernel<S>, const S: usize>(x: f64, size: i64) -> Place {
+    if !(x > -INDEX_LIMIT) {
+        return Place::Below;
+    }
+    if !(x < INDEX_LIMIT) {
+        return Place::Above;
+    }
+    let (b, alpha) = K::base(x);
+    let first = b + K::LO as i64;
+    if first < 0 {
+        Place::Below
+    } else if first + S as i64 > size {
+        Place::Above
+    } else {
+        Place::Inside(first, alpha)
+    }
+}
+
+/// First support indices and fractional offsets for index-space point `pos_i`, which
+/// the caller knows satisfies the inside rule (see [`place`]); the same arithmetic.
+#[inline(always)]
+pub(crate) fn locate<K: Kernel<S>, const S: usize>(pos_i: [f64; 3]) -> ([i64; 3], [f64; 3]) {
+    let mut n = [0i64; 3];
+    let mut alpha = [0.0f64; 3];
+    for a in 0..3 {
+        let (b, al) = K::base(pos_i[a]);
+        n[a] = b + K::LO as i64;
+        alpha[a] = al;
+    }
+    (n, alpha)
 }
 
 /// Index-space gradient `g` to world space by matrix `m` (the transpose of WtoI's 3×3).

@@ -8,7 +8,7 @@ use alloc::vec::Vec;
 
 use crate::blend::{Accum, Blend};
 use crate::camera::{Camera, CameraSpec};
-use crate::convo::{grad_to_world, Convo, ConvoSample, INDEX_LIMIT};
+use crate::convo::{grad_to_world, locate, place, Convo, ConvoSample, Place};
 use crate::error::{Error, ErrorKind, Result};
 use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
@@ -434,11 +434,7 @@ impl RenderSpec<'_> {
         let mut acc = Accum::new(p.blend, p.probe.length());
         let over = p.blend == Blend::Over;
         let fcv = self.camera.fcv;
-        // Planes beyond this count are past the far plane; the bound also ends rays whose
-        // positions stop changing in floating point (a camera very far away).
-        let kmax = ((fcv - self.camera.ncv) / p.plane_sep.max(f64::MIN_POSITIVE))
-            .min(MAX_SAMPLES_PER_RAY) as u32
-            + 1;
+        let kmax = self.plane_limit();
         let mut k: u32 = 0;
         loop {
             let kf = k as f64;
@@ -513,6 +509,16 @@ impl RenderSpec<'_> {
         )
     }
 
+    /// Sample numbers beyond this are past the far plane on every ray; the bound also
+    /// ends rays whose positions stop changing in floating point (a camera very far
+    /// away).
+    fn plane_limit(&self) -> u32 {
+        let cam = &self.camera;
+        ((cam.fcv - cam.ncv) / self.params.plane_sep.max(f64::MIN_POSITIVE))
+            .min(MAX_SAMPLES_PER_RAY) as u32
+            + 1
+    }
+
     /// The number of samples the plain loop takes on ray `g` before the far plane ends
     /// it: it samples k = 0, 1, … up to (not including) the first k > 0 whose view depth
     /// is past the far plane or that exceeds the sample bound.
@@ -520,11 +526,8 @@ impl RenderSpec<'_> {
         if self.once {
             return 1;
         }
-        let p = &self.params;
         let cam = &self.camera;
-        let kmax = ((cam.fcv - cam.ncv) / p.plane_sep.max(f64::MIN_POSITIVE))
-            .min(MAX_SAMPLES_PER_RAY) as u32
-            + 1;
+        let kmax = self.plane_limit();
         // -z(k) never decreases (the step points away from the eye), so the stopping
         // condition is false … false true … true over k = 1 ..= kmax + 1.
         let (s, d) = (g.start_v[2], g.step_v[2]);
@@ -550,20 +553,10 @@ impl RenderSpec<'_> {
             // -1 below the inside range on this axis, 0 in it, +1 above; monotone in k
             // because x(k) = s + k d is (rounding is monotone) and so is the floor.
             let class = |k: u32| -> i32 {
-                let x = s + k as f64 * d;
-                if !(x > -INDEX_LIMIT) {
-                    return -1;
-                }
-                if !(x < INDEX_LIMIT) {
-                    return 1;
-                }
-                let first = K::base(x).0 + K::LO as i64;
-                if first < 0 {
-                    -1
-                } else if first + S as i64 > sizes[a] as i64 {
-                    1
-                } else {
-                    0
+                match place::<K, S>(s + k as f64 * d, sizes[a] as i64) {
+                    Place::Below => -1,
+                    Place::Inside(..) => 0,
+                    Place::Above => 1,
                 }
             };
             let (a0, a1) = if d > 0.0 {
@@ -605,7 +598,7 @@ impl RenderSpec<'_> {
         let in_block = |j: u32| {
             let jf = j as f64;
             let p = core::array::from_fn(|a| start_i[a] + jf * step_i[a]);
-            sk.block_of(Convo::<f32, K, S>::locate(p).0) == blk
+            sk.block_of(locate::<K, S>(p).0) == blk
         };
         // Support start n = floor(x + off) + LO, so the block's starts [f, l] are the
         // positions x in [f − LO − off, l + 1 − LO − off).
@@ -687,7 +680,7 @@ impl RenderSpec<'_> {
         let cam = &self.camera;
         let pos = |k: u32| {
             let kf = k as f64;
-            Convo::<V, K, S>::locate([
+            locate::<K, S>([
                 start_i[0] + kf * step_i[0],
                 start_i[1] + kf * step_i[1],
                 start_i[2] + kf * step_i[2],
