@@ -581,31 +581,29 @@ impl RenderSpec<'_> {
     }
 
     /// The last sample in [k, k1) of the ray `start_i + k step_i` (index space) whose
-    /// support start lies in the same skip block as sample k's, `n`. An estimate from
-    /// the block's faces is checked with the exact sample positions (block membership is
-    /// monotone along the ray on each axis, so the samples between two members are
-    /// members) and bisected down when it overshoots.
-    fn block_run_end<K: Kernel<S>, const S: usize>(
-        &self,
-        sk: &SkipGrid,
+    /// support start lies in box `bx` (`[first, last]` per axis), which holds sample k's.
+    /// An estimate from the box's faces is checked with the exact sample positions
+    /// (support starts are monotone along the ray on each axis, so the samples between
+    /// two members are members) and bisected down when it overshoots.
+    fn box_run_end<K: Kernel<S>, const S: usize>(
+        bx: &[[i64; 2]; 3],
         start_i: &[f64; 3],
         step_i: &[f64; 3],
         k: u32,
         k1: u32,
-        n: [i64; 3],
     ) -> u32 {
-        let blk = sk.block_of(n);
-        let in_block = |j: u32| {
+        let in_box = |j: u32| {
             let jf = j as f64;
             let p = core::array::from_fn(|a| start_i[a] + jf * step_i[a]);
-            sk.block_of(locate::<K, S>(p).0) == blk
+            let n = locate::<K, S>(p).0;
+            (0..3).all(|a| bx[a][0] <= n[a] && n[a] <= bx[a][1])
         };
-        // Support start n = floor(x + off) + LO, so the block's starts [f, l] are the
-        // positions x in [f − LO − off, l + 1 − LO − off).
+        // Support start n = floor(x + off) + LO, so starts [f, l] are the positions x in
+        // [f − LO − off, l + 1 − LO − off).
         let off = if S % 2 == 0 { 0.0 } else { 0.5 };
         let mut est = (k1 - 1) as f64;
         for a in 0..3 {
-            let [f, l] = SkipGrid::block_span(blk[a]);
+            let [f, l] = bx[a];
             let lo = f as f64 - K::LO as f64 - off;
             let hi = (l + 1) as f64 - K::LO as f64 - off;
             let (s, d) = (start_i[a], step_i[a]);
@@ -623,10 +621,10 @@ impl RenderSpec<'_> {
         } else {
             k
         };
-        if in_block(est) {
+        if in_box(est) {
             est
         } else {
-            first_true(k + 1, est, |j| !in_block(j)) - 1
+            first_true(k + 1, est, |j| !in_box(j)) - 1
         }
     }
 
@@ -731,8 +729,10 @@ impl RenderSpec<'_> {
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
                 if let Some(sk) = skip.filter(|sk| sk.empty_at(n)) {
-                    // Every sample up to the last one in this block is empty too.
-                    let last = self.block_run_end::<K, S>(sk, &start_i, &step_i, k, k1, n);
+                    // Every sample up to the last one in the empty box around this
+                    // block is empty too.
+                    let bx = sk.empty_box(n);
+                    let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, k, k1);
                     acc.add_transparent(last - k + 1);
                     k = last + 1;
                     continue;

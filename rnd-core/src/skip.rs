@@ -13,11 +13,15 @@ use crate::voxel::Voxel;
 /// Block edge length in voxels.
 const B: usize = 8;
 
-/// Which blocks of support-base indices give zero opacity everywhere.
+/// Which blocks of support-base indices give zero opacity everywhere, and how far each
+/// empty block is from the nearest block that is not.
 #[derive(Debug, Clone)]
 pub struct SkipGrid {
     nb: [usize; 3],
     empty: Vec<bool>,
+    /// Chebyshev distance, in blocks, from each block to the nearest non-empty one
+    /// (0 for a non-empty block; saturates at 255; blocks beyond the grid do not count).
+    dist: Vec<u8>,
 }
 
 /// Largest Σ|w| of one axis's weights over all fractional positions (sampled finely,
@@ -108,7 +112,8 @@ impl SkipGrid {
                 }
             }
         }
-        SkipGrid { nb, empty }
+        let dist = chessboard_distance(nb, &empty);
+        SkipGrid { nb, empty, dist }
     }
 
     /// True when every convolution whose support starts at index `lo` (all three axes
@@ -119,20 +124,102 @@ impl SkipGrid {
         self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
     }
 
-    /// The block holding support start `lo` (three block coordinates).
+    /// For support start `lo` in an empty block: the box of support starts, `[first,
+    /// last]` per axis, whose blocks are all empty (`lo`'s block widened on every side by
+    /// its distance to the nearest non-empty block, less one). Parts of the box beyond
+    /// the volume hold no support start of an inside sample.
     #[inline(always)]
-    pub fn block_of(&self, lo: [i64; 3]) -> [i64; 3] {
-        lo.map(|x| x.div_euclid(B as i64))
+    pub fn empty_box(&self, lo: [i64; 3]) -> [[i64; 2]; 3] {
+        let b = lo.map(|x| x.div_euclid(B as i64));
+        let i = b[0] as usize + self.nb[0] * (b[1] as usize + self.nb[1] * b[2] as usize);
+        let r = i64::from(self.dist[i]) - 1;
+        b.map(|x| [(x - r) * B as i64, (x + r + 1) * B as i64 - 1])
     }
 
-    /// The support starts of block coordinate `b` on any axis: `[first, last]`.
-    #[inline(always)]
-    pub fn block_span(b: i64) -> [i64; 2] {
-        [b * B as i64, b * B as i64 + B as i64 - 1]
+    /// The Chebyshev distance map (for tests).
+    #[doc(hidden)]
+    pub fn distances(&self) -> (&[usize; 3], &[bool], &[u8]) {
+        (&self.nb, &self.empty, &self.dist)
     }
 
     /// Fraction of blocks marked empty.
     pub fn empty_fraction(&self) -> f64 {
         self.empty.iter().filter(|&&e| e).count() as f64 / self.empty.len().max(1) as f64
+    }
+}
+
+/// Chebyshev (chessboard) distance from every cell of an `nb` grid to the nearest cell
+/// with `empty` false, saturating at 255 (also when there is none): a forward and a
+/// backward raster pass, each taking 1 + the least distance of the 13 neighbours (of 26)
+/// already visited, which is exact for this metric.
+pub fn chessboard_distance(nb: [usize; 3], empty: &[bool]) -> Vec<u8> {
+    let mut d: Vec<u8> = empty.iter().map(|&e| if e { u8::MAX } else { 0 }).collect();
+    let idx = |p: [usize; 3]| p[0] + nb[0] * (p[1] + nb[1] * p[2]);
+    let mut pass = |forward: bool| {
+        let n = nb[0] * nb[1] * nb[2];
+        for t in 0..n {
+            let i = if forward { t } else { n - 1 - t };
+            if d[i] == 0 {
+                continue;
+            }
+            let p = [i % nb[0], (i / nb[0]) % nb[1], i / (nb[0] * nb[1])];
+            let mut best = d[i];
+            // The neighbours before p in raster order (or after it, backward).
+            for dz in -1i64..=1 {
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let before = (dz, dy, dx) < (0, 0, 0);
+                        if before != forward || (dz, dy, dx) == (0, 0, 0) {
+                            continue;
+                        }
+                        let q = [p[0] as i64 + dx, p[1] as i64 + dy, p[2] as i64 + dz];
+                        if (0..3).any(|a| q[a] < 0 || q[a] >= nb[a] as i64) {
+                            continue;
+                        }
+                        let dq = d[idx(q.map(|x| x as usize))];
+                        best = best.min(dq.saturating_add(1));
+                    }
+                }
+            }
+            d[i] = best;
+        }
+    };
+    pass(true);
+    pass(false);
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::chessboard_distance;
+    use alloc::vec::Vec;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The two-pass transform equals the brute-force Chebyshev distance to the
+        /// nearest non-empty cell (255 when there is none or it is farther).
+        #[test]
+        fn chessboard_distance_is_exact(
+            nb in prop::array::uniform3(1usize..7),
+            bits in prop::collection::vec(0u8..10, 216),
+        ) {
+            let n = nb[0] * nb[1] * nb[2];
+            // Mostly empty grids, so distances above 1 occur.
+            let empty: Vec<bool> = bits[..n].iter().map(|&b| b != 0).collect();
+            let d = chessboard_distance(nb, &empty);
+            let at = |i: usize| [i % nb[0], (i / nb[0]) % nb[1], i / (nb[0] * nb[1])];
+            for i in 0..n {
+                let p = at(i);
+                let want = (0..n)
+                    .filter(|&j| !empty[j])
+                    .map(|j| {
+                        let q = at(j);
+                        (0..3).map(|a| p[a].abs_diff(q[a])).max().unwrap_or(0)
+                    })
+                    .min()
+                    .map_or(255, |m| m.min(255)) as u8;
+                prop_assert_eq!(d[i], want, "cell {:?} of {:?}", p, nb);
+            }
+        }
     }
 }

@@ -817,4 +817,46 @@ proptest::proptest! {
             "{k} {probe} {blend}: {fast:?} vs {plain:?}"
         );
     }
+    /// Empty-space skipping over wide empty regions: an impulse or a thin spherical
+    /// shell in a volume of several skip blocks per axis, so rays jump across boxes of
+    /// many empty blocks; the image equals the plain loop's without skipping.
+    #[test]
+    fn wide_empty_skips_are_exact(
+        which in proptest::sample::select(vec![8u32, 9]),
+        ki in 0usize..7,
+        lit in proptest::bool::ANY,
+        fr in proptest::array::uniform3(-6.0f64..6.0),
+        at in proptest::array::uniform3(-0.5f64..0.5),
+        step in proptest::sample::select(vec![0.013f64, 0.05, 0.31]),
+        ortho in proptest::bool::ANY,
+        short in proptest::bool::ANY,
+    ) {
+        proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
+        let sv = SdgVolume::new(which, [45, 38, 50], short);
+        let (vol, scale) = (sv.vol(), sv.scale());
+        // Opacity only near the impulse's peak (8) or the shell -(r^2) = -0.5 (9).
+        let (lo, hi) = if which == 8 { (0.05, 1.2) } else { (-0.55, -0.45) };
+        let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + hi) / 2.0 * scale, 0.7], &[hi * scale, 0.0]]).unwrap();
+        let c = Txf::new(TxfSpace::Rgb, &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]]).unwrap();
+        let lut = Lut::generate(Some(&c), Some(&a), false, false, 400, -2.0 * scale, 2.0 * scale).unwrap();
+        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+        let mut p = RenderParams::new(cam(fr, at, [0.0, 0.0, 1.0], -2.5, 2.5, [11, 9], ortho));
+        p.plane_sep = step;
+        p.unit_step = 0.05;
+        p.probe = if lit { Probe::RgbaLit } else { Probe::Rgba };
+        p.blend = Blend::Over;
+        let k = KernelName::ALL[ki];
+        let Ok(spec) = RenderSpec::new(p.clone(), Some(&lut), None, &lights) else {
+            return Ok(());
+        };
+        let fast = render(&spec, vol, k);
+        p.fast_loop = false;
+        p.skip_empty = false;
+        let plain = render(&RenderSpec::new(p, Some(&lut), None, &lights).unwrap(), vol, k);
+        proptest::prop_assert!(fast.iter().any(|&x| x > 0.0) || plain.iter().all(|&x| x == 0.0));
+        proptest::prop_assert!(
+            fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{k}: {fast:?} vs {plain:?}"
+        );
+    }
 }
