@@ -57,49 +57,49 @@ impl SkipGrid {
             nz.push(last + u32::from(x[3] != 0.0));
         }
         // Min and max over each block's support range (the block's bases plus S − 1
-        // more voxels per axis), separably: along x for every row, then along y, then
-        // along z. A NaN voxel makes its range (−∞, ∞), so that block is never empty.
+        // more voxels per axis), separably and one slab of blocks at a time: along z
+        // for every voxel of the slab's planes (element by element over whole planes,
+        // which the compiler vectorizes), then along y for every row, then along x. A
+        // NaN voxel makes its range (−∞, ∞), so its blocks are never empty.
         let range = |b: usize, a: usize| (b * B)..((b + 1) * B + s - 1).min(sizes[a]);
-        let mm = |acc: (f32, f32), x: (f32, f32)| (acc.0.min(x.0), acc.1.max(x.1));
-        let none = (f32::INFINITY, f32::NEG_INFINITY);
         let data = vol.data();
-        let (s0, s1, s2) = (sizes[0], sizes[1], sizes[2]);
-        // x: [bi][j][k] → (bi + nb0 (j + s1 k))
-        let mut px = alloc::vec![none; nb[0] * s1 * s2];
-        for jk in 0..s1 * s2 {
-            let row = &data[jk * s0..(jk + 1) * s0];
-            for bi in 0..nb[0] {
-                let mut r = none;
-                for v in &row[range(bi, 0)] {
-                    let v = v.to_f32();
-                    r = if v.is_nan() {
-                        (f32::NEG_INFINITY, f32::INFINITY)
-                    } else {
-                        mm(r, (v, v))
-                    };
-                }
-                px[bi + nb[0] * jk] = r;
-            }
-        }
-        // y: [bi][bj][k]
-        let mut py = alloc::vec![none; nb[0] * nb[1] * s2];
-        for k in 0..s2 {
-            for bj in 0..nb[1] {
-                for bi in 0..nb[0] {
-                    py[bi + nb[0] * (bj + nb[1] * k)] = range(bj, 1)
-                        .map(|j| px[bi + nb[0] * (j + s1 * k)])
-                        .fold(none, mm);
-                }
-            }
-        }
-        // z, and the verdict.
+        let (s0, s1) = (sizes[0], sizes[1]);
+        let plane = s0 * s1;
+        let mut zlo = alloc::vec![0.0f32; plane];
+        let mut zhi = alloc::vec![0.0f32; plane];
+        let mut ylo = alloc::vec![0.0f32; s0];
+        let mut yhi = alloc::vec![0.0f32; s0];
         let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
         for bk in 0..nb[2] {
+            zlo.fill(f32::INFINITY);
+            zhi.fill(f32::NEG_INFINITY);
+            for k in range(bk, 2) {
+                let src = &data[k * plane..(k + 1) * plane];
+                for ((lo, hi), v) in zlo.iter_mut().zip(zhi.iter_mut()).zip(src) {
+                    let v = v.to_f32();
+                    let (l, h) = if v.is_nan() {
+                        (f32::NEG_INFINITY, f32::INFINITY)
+                    } else {
+                        (v, v)
+                    };
+                    *lo = if l < *lo { l } else { *lo };
+                    *hi = if h > *hi { h } else { *hi };
+                }
+            }
             for bj in 0..nb[1] {
+                ylo.fill(f32::INFINITY);
+                yhi.fill(f32::NEG_INFINITY);
+                for j in range(bj, 1) {
+                    let (rl, rh) = (&zlo[j * s0..(j + 1) * s0], &zhi[j * s0..(j + 1) * s0]);
+                    for (((lo, hi), &l), &h) in ylo.iter_mut().zip(yhi.iter_mut()).zip(rl).zip(rh) {
+                        *lo = if l < *lo { l } else { *lo };
+                        *hi = if h > *hi { h } else { *hi };
+                    }
+                }
                 for bi in 0..nb[0] {
-                    let (m, mx) = range(bk, 2)
-                        .map(|k| py[bi + nb[0] * (bj + nb[1] * k)])
-                        .fold(none, mm);
+                    let r = range(bi, 0);
+                    let m = ylo[r.clone()].iter().fold(f32::INFINITY, |a, &x| a.min(x));
+                    let mx = yhi[r].iter().fold(f32::NEG_INFINITY, |a, &x| a.max(x));
                     if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
                         continue;
                     }
@@ -151,42 +151,64 @@ impl SkipGrid {
 /// Chebyshev (chessboard) distance from every cell of an `nb` grid to the nearest cell
 /// with `empty` false, saturating at 255 (also when there is none): a forward and a
 /// backward raster pass, each taking 1 + the least distance of the 13 neighbours (of 26)
-/// already visited, which is exact for this metric.
+/// already visited, which is exact for this metric. The grid is padded with a layer of
+/// saturated cells so that every cell has all its neighbours.
 pub fn chessboard_distance(nb: [usize; 3], empty: &[bool]) -> Vec<u8> {
-    let mut d: Vec<u8> = empty.iter().map(|&e| if e { u8::MAX } else { 0 }).collect();
-    let idx = |p: [usize; 3]| p[0] + nb[0] * (p[1] + nb[1] * p[2]);
-    let mut pass = |forward: bool| {
-        let n = nb[0] * nb[1] * nb[2];
-        for t in 0..n {
-            let i = if forward { t } else { n - 1 - t };
-            if d[i] == 0 {
-                continue;
-            }
-            let p = [i % nb[0], (i / nb[0]) % nb[1], i / (nb[0] * nb[1])];
-            let mut best = d[i];
-            // The neighbours before p in raster order (or after it, backward).
-            for dz in -1i64..=1 {
-                for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        let before = (dz, dy, dx) < (0, 0, 0);
-                        if before != forward || (dz, dy, dx) == (0, 0, 0) {
-                            continue;
-                        }
-                        let q = [p[0] as i64 + dx, p[1] as i64 + dy, p[2] as i64 + dz];
-                        if (0..3).any(|a| q[a] < 0 || q[a] >= nb[a] as i64) {
-                            continue;
-                        }
-                        let dq = d[idx(q.map(|x| x as usize))];
-                        best = best.min(dq.saturating_add(1));
-                    }
+    let p = nb.map(|n| n + 2);
+    let at = |x: usize, y: usize, z: usize| x + p[0] * (y + p[1] * z);
+    let mut d = alloc::vec![u8::MAX; p[0] * p[1] * p[2]];
+    for z in 0..nb[2] {
+        for y in 0..nb[1] {
+            for x in 0..nb[0] {
+                if !empty[x + nb[0] * (y + nb[1] * z)] {
+                    d[at(x + 1, y + 1, z + 1)] = 0;
                 }
             }
-            d[i] = best;
+        }
+    }
+    // Offsets of the 13 neighbours before a cell in raster order.
+    let (sy, sz) = (p[0] as isize, (p[0] * p[1]) as isize);
+    let mut before = Vec::with_capacity(13);
+    for dz in -1isize..=1 {
+        for dy in -1isize..=1 {
+            for dx in -1isize..=1 {
+                if (dz, dy, dx) < (0, 0, 0) {
+                    before.push(dx + sy * dy + sz * dz);
+                }
+            }
+        }
+    }
+    let mut relax = |i: usize, sign: isize| {
+        if d[i] != 0 {
+            let m = before
+                .iter()
+                .map(|&o| d[i.wrapping_add_signed(sign * o)])
+                .min()
+                .unwrap_or(u8::MAX);
+            d[i] = d[i].min(m.saturating_add(1));
         }
     };
-    pass(true);
-    pass(false);
-    d
+    for z in 1..=nb[2] {
+        for y in 1..=nb[1] {
+            for x in 1..=nb[0] {
+                relax(at(x, y, z), 1);
+            }
+        }
+    }
+    for z in (1..=nb[2]).rev() {
+        for y in (1..=nb[1]).rev() {
+            for x in (1..=nb[0]).rev() {
+                relax(at(x, y, z), -1);
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(empty.len());
+    for z in 1..=nb[2] {
+        for y in 1..=nb[1] {
+            out.extend_from_slice(&d[at(1, y, z)..at(nb[0] + 1, y, z)]);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
