@@ -40,6 +40,10 @@ fn main() -> ExitCode {
         eprintln!("\nrendr: interrupted");
         std::process::exit(130);
     });
+    // RND_AVX2=0: convolve without AVX2 (the same bits, slower; for comparisons).
+    if std::env::var_os("RND_AVX2").is_some_and(|v| v == "0") {
+        rnd_core::avx::set_avx2(false);
+    }
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let Some(name) = argv.first() else {
         print!("{}", list_commands());

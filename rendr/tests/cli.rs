@@ -1370,6 +1370,44 @@ fn fast_loop_matches_plain_on_real_volume() {
     }
 }
 
+/// Convolving two samples at once with AVX2 (where the processor has it) gives the
+/// bits of the SSE path (`RND_AVX2=0`), on the bundled MRI for every probe that
+/// convolves and both cubic kernels.
+#[test]
+fn avx2_matches_sse_on_real_volume() {
+    if !rnd_core::avx::avx2_enabled() {
+        eprintln!("skipped: this processor has no AVX2");
+        return;
+    }
+    let top = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let d = rnd_tests::tmpdir("avxsse");
+    let cases: [&[&str]; 3] = [
+        &["-sz", "96", "96"],
+        &["-sz", "64", "64", "-p", "gm", "-b", "max", "-k", "ctmr"],
+        &["-sz", "64", "64", "-p", "gv", "-b", "sum", "-ortho"],
+    ];
+    for (i, extra) in cases.iter().enumerate() {
+        let mut outs = Vec::new();
+        for avx in ["1", "0"] {
+            let o = d.join(format!("o{i}-{avx}.nrrd"));
+            let o = o.to_string_lossy();
+            let mut args = vec!["go", "@data/head.txt", "-o", &o];
+            args.extend_from_slice(extra);
+            let r = rendr()
+                .current_dir(&top)
+                .env("RND_AVX2", avx)
+                .args(&args)
+                .output()
+                .expect("run rendr");
+            assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+            let (_, v) = read_floats(Path::new(&*o));
+            outs.push(v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+        }
+        assert!(outs[0].len() > 1000);
+        assert!(outs[0] == outs[1], "case {extra:?}: AVX2 and SSE differ");
+    }
+}
+
 /// A reader that stops early (`rendr go -db ... | head -1`) ends rendr quietly (killed by
 /// SIGPIPE, like a C tool) rather than with a panic about a failed print.
 #[cfg(unix)]

@@ -37,6 +37,7 @@
 extern crate alloc;
 
 pub mod affine;
+pub mod avx;
 pub mod blend;
 pub mod camera;
 pub mod convo;

@@ -23,6 +23,14 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     /// `p` must point at four readable consecutive voxels.
     #[cfg(target_arch = "x86_64")]
     unsafe fn load4(p: *const Self) -> core::arch::x86_64::__m128;
+    /// Two rows of four voxels, from `p` in the low 128 bits and from `q` in the high
+    /// 128 bits, converted to f32 lanes (AVX2).
+    ///
+    /// # Safety
+    /// `p` and `q` must each point at four readable consecutive voxels, and the CPU must
+    /// support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load4x2(p: *const Self, q: *const Self) -> core::arch::x86_64::__m256;
 }
 
 impl Voxel for f32 {
@@ -40,6 +48,13 @@ impl Voxel for f32 {
     unsafe fn load4(p: *const f32) -> core::arch::x86_64::__m128 {
         // SAFETY: the caller guarantees 4 readable f32 at p; SSE is x86_64 baseline.
         unsafe { core::arch::x86_64::_mm_loadu_ps(p) }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load4x2(p: *const f32, q: *const f32) -> core::arch::x86_64::__m256 {
+        // SAFETY: the caller guarantees 4 readable f32 at p and at q.
+        unsafe { core::arch::x86_64::_mm256_loadu2_m128(q, p) }
     }
 }
 
@@ -59,6 +74,20 @@ impl Voxel for i16 {
         unsafe {
             let v = _mm_loadl_epi64(p as *const __m128i);
             _mm_cvtepi32_ps(_mm_srai_epi32::<16>(_mm_unpacklo_epi16(v, v)))
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load4x2(p: *const i16, q: *const i16) -> core::arch::x86_64::__m256 {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees 4 readable i16 (8 bytes) at p and at q: one 64-bit
+        // load each into the two halves of a register, then sign extension to 32 bits
+        // and conversion (both exact).
+        unsafe {
+            let lo = _mm_loadl_epi64(p as *const __m128i);
+            let both = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), q as *const f64));
+            _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(both))
         }
     }
 }
