@@ -64,7 +64,7 @@ unsafe fn xcr0() -> u64 {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use imp::sums_pairs;
+pub(crate) use imp::{sums_pairs, sums_run};
 
 #[cfg(target_arch = "x86_64")]
 mod imp {
@@ -104,7 +104,7 @@ mod imp {
         }
     }
 
-    /// Support-4 sums [value, ∂x, ∂y, ∂z] (the last three only when `G`) of samples `N`
+    /// Support-4 sums [value, ∂x, ∂y, ∂z] (the last three only when `G`) of `N`
     /// samples, two at a time: sample i's support starts at voxel `base[i]` of `data`
     /// (rows `s0` apart, slices `s01` apart), its fractional offsets are `alpha[i]`, and
     /// `co` holds the kernel's cubic coefficients for the value and the derivative.
@@ -125,6 +125,78 @@ mod imp {
         co: &[[[f32; 4]; 4]; 2],
         out: &mut [[f32; 4]; N],
     ) {
+        let al: [[f32; 3]; N] = core::array::from_fn(|i| alpha[i].map(|a| a as f32));
+        // SAFETY: passed on from the caller.
+        unsafe { pairs::<V, G, N>(data, base, s0, s01, &al, co, out) }
+    }
+
+    /// [`sums_pairs`] for the `N` consecutive samples k, k + 1, … of the ray `start +
+    /// k step` (index space), all inside the volume (support start `floor(x) + lo` on
+    /// each axis, fractional offset `x − floor(x)`, as `convo::locate` for even
+    /// supports): positions, floors and offsets in 256-bit f64 lanes, the same operations
+    /// as the scalar code, so the same bits.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 and `N` is even.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) unsafe fn sums_run<V: Voxel, const G: bool, const N: usize>(
+        data: &[V],
+        s0: usize,
+        s01: usize,
+        lo: i64,
+        start: &[f64; 3],
+        step: &[f64; 3],
+        k: u32,
+        co: &[[[f32; 4]; 4]; 2],
+        out: &mut [[f32; 4]; N],
+    ) {
+        let st = _mm256_set_pd(0.0, start[2], start[1], start[0]);
+        let sp = _mm256_set_pd(0.0, step[2], step[1], step[0]);
+        let mut base = [0usize; N];
+        let mut al = [[0.0f32; 3]; N];
+        for i in 0..N {
+            let kf = _mm256_set1_pd((k + i as u32) as f64);
+            let x = _mm256_add_pd(st, _mm256_mul_pd(kf, sp));
+            let f = _mm256_floor_pd(x);
+            // Rounded to f32 as `as f32` does (to nearest, the MXCSR default).
+            let a = _mm256_cvtpd_ps(_mm256_sub_pd(x, f));
+            let n = _mm256_cvttpd_epi32(f);
+            let mut ni = [0i32; 4];
+            let mut af = [0.0f32; 4];
+            // SAFETY: 4 i32 / 4 f32 stores into local arrays.
+            unsafe {
+                _mm_storeu_si128(ni.as_mut_ptr() as *mut __m128i, n);
+                _mm_storeu_ps(af.as_mut_ptr(), a);
+            }
+            let n = [0, 1, 2].map(|c| i64::from(ni[c]) + lo);
+            let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
+            // Memory safety rests on this check (the caller's span makes it hold).
+            assert!(n.iter().all(|&c| c >= 0) && b + 3 * (1 + s0 + s01) < data.len());
+            base[i] = b;
+            al[i] = [af[0], af[1], af[2]];
+        }
+        // SAFETY: AVX2 (caller), N even (caller), every support checked above.
+        unsafe { pairs::<V, G, N>(data, &base, s0, s01, &al, co, out) }
+    }
+
+    /// Phase 1 (weights) and phase 2 (sums) of [`sums_pairs`], offsets already in f32.
+    ///
+    /// # Safety
+    /// As [`sums_pairs`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn pairs<V: Voxel, const G: bool, const N: usize>(
+        data: &[V],
+        base: &[usize; N],
+        s0: usize,
+        s01: usize,
+        alpha: &[[f32; 3]; N],
+        co: &[[[f32; 4]; 4]; 2],
+        out: &mut [[f32; 4]; N],
+    ) {
         debug_assert!(N % 2 == 0);
         let zero = _mm256_setzero_ps();
         // Phase 1: the weights of every pair (value, and derivative when G).
@@ -133,9 +205,9 @@ mod imp {
         for i in 0..N / 2 {
             let (a, b) = (&alpha[2 * i], &alpha[2 * i + 1]);
             for ax in 0..3 {
-                w[i][ax] = horner(&co[0], a[ax] as f32, b[ax] as f32);
+                w[i][ax] = horner(&co[0], a[ax], b[ax]);
                 if G {
-                    d[i][ax] = horner(&co[1], a[ax] as f32, b[ax] as f32);
+                    d[i][ax] = horner(&co[1], a[ax], b[ax]);
                 }
             }
         }

@@ -104,6 +104,37 @@ impl Accum {
         }
     }
 
+    /// [`Accum::add`] of one-channel samples `xs` in order (the same arithmetic, so the
+    /// same result), for `max`, `sum` and `mean` with a probe of length 1.
+    #[inline(always)]
+    pub fn add_scalars(&mut self, xs: &[f32]) {
+        debug_assert!(self.len == 1 && self.blend != Blend::Over);
+        let Some((&x0, rest)) = xs.split_first() else {
+            return;
+        };
+        match self.blend {
+            Blend::Max => {
+                let mut m = if self.count == 0 {
+                    x0
+                } else {
+                    self.acc[0].max(x0)
+                };
+                for &x in rest {
+                    m = m.max(x);
+                }
+                self.acc[0] = m;
+            }
+            _ => {
+                let mut s = self.acc[0];
+                for &x in xs {
+                    s += x;
+                }
+                self.acc[0] = s;
+            }
+        }
+        self.count += xs.len() as u32;
+    }
+
     /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
     /// [`Accum::add`] of `[0.0; 4]` does `n` times).
     #[inline(always)]

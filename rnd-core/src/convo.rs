@@ -154,6 +154,49 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         out[0]
     }
 
+    /// [`Convo::sums_n`] for the N consecutive samples k, k + 1, … of the index-space
+    /// ray `start + k step`, all of which the caller knows satisfy the inside rule
+    /// (positions and offsets as [`locate`] computes them).
+    #[inline(always)]
+    pub(crate) fn sums_run<const G: bool, const N: usize>(
+        &mut self,
+        start: &[f64; 3],
+        step: &[f64; 3],
+        k: u32,
+        out: &mut [[f32; 4]; N],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if let (4, true, 0, Some(co)) = (S, self.avx, N % 2, K::CUBIC4) {
+            let (s0, s01) = (
+                self.sizes[0] as usize,
+                (self.sizes[0] * self.sizes[1]) as usize,
+            );
+            // SAFETY: AVX2 is available (self.avx) and N is even; the supports are
+            // checked inside.
+            unsafe {
+                crate::avx::sums_run::<V, G, N>(
+                    self.vol.data(),
+                    s0,
+                    s01,
+                    K::LO as i64,
+                    start,
+                    step,
+                    k,
+                    &co,
+                    out,
+                )
+            };
+            return;
+        }
+        let mut n = [[0i64; 3]; N];
+        let mut alpha = [[0.0f64; 3]; N];
+        for i in 0..N {
+            let kf = (k + i as u32) as f64;
+            (n[i], alpha[i]) = locate::<K, S>(core::array::from_fn(|a| start[a] + kf * step[a]));
+        }
+        self.sums_n::<G, N>(&n, &alpha, out);
+    }
+
     /// [`Convo::sums`] for N samples at once, each result bit for bit what
     /// [`Convo::sums`] gives. With SSE the work is split into phases over all N samples
     /// (support offsets and weights for every sample, then every sample's sums) so that

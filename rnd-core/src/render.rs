@@ -719,6 +719,7 @@ impl RenderSpec<'_> {
         // (opacity 0 under `over`) changes nothing but the count, so they are counted
         // where they are met and the batch is filled with the next samples.
         const LANES: usize = 8;
+        let scalars = p.blend != Blend::Over && matches!(p.probe, Probe::Value | Probe::GradMag);
         let mut k = k0;
         let mut nb = [[0i64; 3]; LANES];
         let mut al = [[0.0f64; 3]; LANES];
@@ -726,6 +727,24 @@ impl RenderSpec<'_> {
         let mut res = [[0.0f32; 4]; LANES];
         while k < k1 {
             let mut m = 0;
+            if skip.is_none() && k1 - k >= LANES as u32 {
+                // A whole batch of consecutive samples: positions computed with the sums.
+                convo.sums_run::<G, LANES>(&start_i, &step_i, k, &mut res);
+                if scalars {
+                    // One channel under max/sum/mean: no early end, no colour.
+                    let xs: [f32; LANES] = core::array::from_fn(|i| match p.probe {
+                        Probe::GradMag => {
+                            gmag(&grad_to_world(&gmat, [res[i][1], res[i][2], res[i][3]]))
+                        }
+                        _ => res[i][0],
+                    });
+                    acc.add_scalars(&xs);
+                } else if (0..LANES).any(|i| take(&mut acc, k + i as u32, res[i])) {
+                    break;
+                }
+                k += LANES as u32;
+                continue;
+            }
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
                 if let Some(sk) = skip.filter(|sk| sk.empty_at(n)) {

@@ -105,8 +105,12 @@ impl SkipGrid {
                     }
                     let (m, mx) = (m as f64, mx as f64);
                     let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
-                    let lo = m - wneg * (mx - m) - margin;
-                    let hi = mx + wneg * (mx - m) + margin;
+                    let (lo, hi) = if kernel == KernelName::Zero {
+                        // Every weight is 0: the value is 0 whatever the voxels are.
+                        (0.0, 0.0)
+                    } else {
+                        (m - wneg * (mx - m) - margin, mx + wneg * (mx - m) + margin)
+                    };
                     let (i0, i1) = (lut.index(lo), lut.index(hi));
                     empty[bi + nb[0] * (bj + nb[1] * bk)] = nz[i1 + 1] == nz[i0];
                 }
