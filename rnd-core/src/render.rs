@@ -347,6 +347,18 @@ impl RenderSpec<'_> {
         true
     }
 
+    /// The corrected opacity of LUT entry `i` on ray `g` without Levoy opacity.
+    #[inline(always)]
+    fn lut_alpha(&self, lut: &Lut, i: usize, g: &RayGeom) -> f32 {
+        match &self.alpha_table {
+            Some((ex, t)) if *ex == g.alpha_exp => t[i],
+            _ if i < self.ln_transparency.len() => {
+                correct_alpha_ln(lut.entries()[i][3], self.ln_transparency[i], g.alpha_exp)
+            }
+            _ => correct_alpha(lut.entries()[i][3], g.alpha_exp),
+        }
+    }
+
     /// The rgba / rgbalit probe for value `v` and world gradient `gw`; `tau` gives the
     /// depth-cue position (0 at the near plane, 1 at the far plane) when lighting.
     #[inline(always)]
@@ -362,18 +374,9 @@ impl RenderSpec<'_> {
         let Some(lut) = self.lut else { return false };
         let i = lut.index(v as f64);
         let e = lut.entries()[i];
-        let a = match (&self.alpha_table, self.levoy) {
-            (Some((ex, t)), None) if *ex == g.alpha_exp => t[i],
-            (_, None) if i < self.ln_transparency.len() => {
-                correct_alpha_ln(e[3], self.ln_transparency[i], g.alpha_exp)
-            }
-            (_, lev) => {
-                let a = match lev {
-                    Some(lev) => e[3] * lev.opacity(v, gmag(gw)),
-                    None => e[3],
-                };
-                correct_alpha(a, g.alpha_exp)
-            }
+        let a = match self.levoy {
+            None => self.lut_alpha(lut, i, g),
+            Some(lev) => correct_alpha(e[3] * lev.opacity(v, gmag(gw)), g.alpha_exp),
         };
         if a == 0.0 && p.blend == Blend::Over {
             // Adds nothing under `over`: no need to light it.
@@ -720,6 +723,9 @@ impl RenderSpec<'_> {
         // where they are met and the batch is filled with the next samples.
         const LANES: usize = 8;
         let scalars = p.blend != Blend::Over && matches!(p.probe, Probe::Value | Probe::GradMag);
+        // Under `over` without Levoy opacity a sample's opacity depends on its value
+        // alone, so the gradient is needed only where it is not zero.
+        let value_first = G && over && self.levoy.is_none() && p.probe.is_colour();
         let mut k = k0;
         let mut nb = [[0i64; 3]; LANES];
         let mut al = [[0.0f64; 3]; LANES];
@@ -727,7 +733,7 @@ impl RenderSpec<'_> {
         let mut res = [[0.0f32; 4]; LANES];
         while k < k1 {
             let mut m = 0;
-            if skip.is_none() && k1 - k >= LANES as u32 {
+            if !over && k1 - k >= LANES as u32 {
                 // A whole batch of consecutive samples: positions computed with the sums.
                 convo.sums_run::<G, LANES>(&start_i, &step_i, k, &mut res);
                 if scalars {
@@ -760,6 +766,31 @@ impl RenderSpec<'_> {
                     m += 1;
                 }
                 k += 1;
+            }
+            if let (true, Some(lut)) = (value_first, self.lut) {
+                // Values first; the gradient (and lighting) only for samples that are
+                // not transparent. The value is the same bits with or without the
+                // gradient, and a transparent sample only counts.
+                if m == LANES {
+                    convo.sums_n::<false, LANES>(&nb, &al, &mut res);
+                } else {
+                    for i in 0..m {
+                        res[i] = convo.sums::<false>(nb[i], al[i]);
+                    }
+                }
+                let mut finished = false;
+                for i in 0..m {
+                    if self.lut_alpha(lut, lut.index(res[i][0] as f64), &g) == 0.0 {
+                        acc.add_transparent(1);
+                    } else if take(&mut acc, ks[i], convo.sums::<true>(nb[i], al[i])) {
+                        finished = true;
+                        break;
+                    }
+                }
+                if finished {
+                    break;
+                }
+                continue;
             }
             if m == LANES {
                 convo.sums_n::<G, LANES>(&nb, &al, &mut res);
