@@ -584,14 +584,16 @@ impl RenderSpec<'_> {
     }
 
     /// The last sample in [k, k1) of the ray `start_i + k step_i` (index space) whose
-    /// support start lies in box `bx` (`[first, last]` per axis), which holds sample k's.
-    /// An estimate from the box's faces is checked with the exact sample positions
-    /// (support starts are monotone along the ray on each axis, so the samples between
-    /// two members are members) and bisected down when it overshoots.
+    /// support start lies in box `bx` (`[first, last]` per axis), which holds sample k's;
+    /// `inv` holds the reciprocals of `step_i`. An estimate from the box's faces is
+    /// checked with the exact sample positions (support starts are monotone along the
+    /// ray on each axis, so the samples between two members are members), then one
+    /// sample less (round-off in the estimate), then bisected down.
     fn box_run_end<K: Kernel<S>, const S: usize>(
         bx: &[[i64; 2]; 3],
         start_i: &[f64; 3],
         step_i: &[f64; 3],
+        inv: &[f64; 3],
         k: u32,
         k1: u32,
     ) -> u32 {
@@ -602,30 +604,36 @@ impl RenderSpec<'_> {
             (0..3).all(|a| bx[a][0] <= n[a] && n[a] <= bx[a][1])
         };
         // Support start n = floor(x + off) + LO, so starts [f, l] are the positions x in
-        // [f − LO − off, l + 1 − LO − off).
+        // [f − LO − off, l + 1 − LO − off). The estimate need not be exact: it is
+        // checked below, so truncations stand in for floor and ceil.
         let off = if S % 2 == 0 { 0.0 } else { 0.5 };
         let mut est = (k1 - 1) as f64;
         for a in 0..3 {
             let [f, l] = bx[a];
-            let lo = f as f64 - K::LO as f64 - off;
-            let hi = (l + 1) as f64 - K::LO as f64 - off;
             let (s, d) = (start_i[a], step_i[a]);
             let last = if d > 0.0 {
-                math::ceil((hi - s) / d) - 1.0
+                let hi = (l + 1) as f64 - K::LO as f64 - off;
+                (hi - s) * inv[a]
             } else if d < 0.0 {
-                math::floor((lo - s) / d)
+                let lo = f as f64 - K::LO as f64 - off;
+                (lo - s) * inv[a]
             } else {
                 continue;
             };
             est = est.min(last);
         }
-        let est = if est.is_finite() && est > k as f64 {
-            (est as u32).min(k1 - 1)
+        // Largest whole number below est (or k).
+        let est = if est > k as f64 + 1.0 {
+            let t = est as u32;
+            let t = if t as f64 == est { t - 1 } else { t };
+            t.min(k1 - 1)
         } else {
             k
         };
         if in_box(est) {
             est
+        } else if est > k + 1 && in_box(est - 1) {
+            est - 1
         } else {
             first_true(k + 1, est, |j| !in_box(j)) - 1
         }
@@ -677,6 +685,7 @@ impl RenderSpec<'_> {
         };
         let over = p.blend == Blend::Over;
         let skip = if over { skip } else { None };
+        let inv = step_i.map(|d| 1.0 / d);
         let mut acc = Accum::new(p.blend, p.probe.length());
         let cam = &self.camera;
         let pos = |k: u32| {
@@ -757,7 +766,7 @@ impl RenderSpec<'_> {
                     // Every sample up to the last one in the empty box around this
                     // block is empty too.
                     let bx = sk.empty_box(n);
-                    let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, k, k1);
+                    let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &inv, k, k1);
                     acc.add_transparent(last - k + 1);
                     k = last + 1;
                     continue;
