@@ -166,6 +166,16 @@ fn advise_huge_pages(addr: usize, len: usize) {
                 libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
             }
         }
+        // Map the whole buffer now, in one call, rather than page by page as the data
+        // arrives (each fault is costly, more so in a virtual machine). Older kernels
+        // refuse the advice; then the pages come on demand as before.
+        let first = addr / 4096 * 4096;
+        let last = (addr + len).next_multiple_of(4096);
+        // SAFETY: as above, on the pages that hold the allocation [addr, addr + len);
+        // populating pages for writing does not change any contents.
+        unsafe {
+            libc::madvise(first as *mut libc::c_void, last - first, libc::MADV_POPULATE_WRITE);
+        }
     }
     #[cfg(not(target_os = "linux"))]
     let _ = (addr, len);
