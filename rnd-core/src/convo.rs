@@ -260,6 +260,29 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             }
             return;
         }
+        #[cfg(target_arch = "x86_64")]
+        if S == 2 {
+            let w: [[[f32; 2]; 3]; N] =
+                core::array::from_fn(|i| alpha[i].map(|a| two(K::weights(a))));
+            let d: [[[f32; 2]; 3]; N] = core::array::from_fn(|i| {
+                if G {
+                    alpha[i].map(|a| two(K::weights_d1(a)))
+                } else {
+                    [[0.0; 2]; 3]
+                }
+            });
+            for i in 0..N {
+                let b = base[i];
+                // SAFETY: rows (j, k) for j, k < 2 are the 2 voxels from b + j s0 + k s01,
+                // which end at or before the voxel checked above.
+                let rows = unsafe {
+                    let p = data.as_ptr().add(b);
+                    V::load2x4(p, p.add(s0), p.add(s01), p.add(s0 + s01))
+                };
+                out[i] = sse::sums2::<G>(rows, &w[i], &d[i]);
+            }
+            return;
+        }
         // Other supports: the same two phases, rows read from the volume and converted.
         let w: [[[f32; S]; 3]; N] = core::array::from_fn(|i| alpha[i].map(K::weights));
         let d: [[[f32; S]; 3]; N] = core::array::from_fn(|i| {
@@ -280,6 +303,12 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             out[i] = sums::<S, G>(row, &w[i], &d[i]);
         }
     }
+}
+
+/// The first two weights (the whole support when S = 2).
+#[inline(always)]
+fn two<const S: usize>(w: [f32; S]) -> [f32; 2] {
+    [w[0], w[1 % S]]
 }
 
 /// Where index coordinate `x` puts a kernel support on an axis of `size` samples (the
@@ -445,6 +474,59 @@ pub(crate) mod sse {
         }
     }
 
+    /// [`super::sums`] for S = 2, the same operations in the same order (so bit-identical
+    /// to it): `rows` holds rows (0, 0) and (1, 0) in the first vector and rows (0, 1)
+    /// and (1, 1) in the second (row (j, k): row j of slice k, 2 voxels along x); `w`
+    /// and `d` the value and derivative weights of the x, y and z axes.
+    #[inline(always)]
+    pub(crate) fn sums2<const G: bool>(
+        rows: [__m128; 2],
+        w: &[[f32; 2]; 3],
+        d: &[[f32; 2]; 3],
+    ) -> [f32; 4] {
+        let [wx, wy, wz] = w;
+        let [dx, dy, dz] = d;
+        let mut out = [0.0f32; 4];
+        unsafe {
+            let [a, b] = rows;
+            // Along z: lanes [p_0, p_1] (j = 0) and [p_0, p_1] (j = 1).
+            let p = _mm_add_ps(
+                _mm_mul_ps(_mm_set1_ps(wz[0]), a),
+                _mm_mul_ps(_mm_set1_ps(wz[1]), b),
+            );
+            // Along y: the j = 0 products plus the j = 1 products.
+            let wyv = _mm_set_ps(wy[1], wy[1], wy[0], wy[0]);
+            let t1 = _mm_mul_ps(wyv, p);
+            if G {
+                let q = _mm_add_ps(
+                    _mm_mul_ps(_mm_set1_ps(dz[0]), a),
+                    _mm_mul_ps(_mm_set1_ps(dz[1]), b),
+                );
+                let t2 = _mm_mul_ps(_mm_set_ps(dy[1], dy[1], dy[0], dy[0]), p);
+                let t3 = _mm_mul_ps(wyv, q);
+                // [acc_0, acc_1, accy_0, accy_1] and [accz_0, accz_1, …].
+                let x = _mm_add_ps(_mm_movelh_ps(t1, t2), _mm_movehl_ps(t2, t1));
+                let z = _mm_add_ps(t3, _mm_movehl_ps(t3, t3));
+                // Along x: products, then the two of each sum added.
+                let m1 = _mm_mul_ps(x, _mm_set_ps(wx[1], wx[0], wx[1], wx[0]));
+                let az = _mm_movelh_ps(x, z);
+                let m2 = _mm_mul_ps(az, _mm_set_ps(wx[1], wx[0], dx[1], dx[0]));
+                // [v, ∂y, ∂x, ∂z] = even lanes + odd lanes, then reordered.
+                let h = _mm_add_ps(
+                    _mm_shuffle_ps::<0b10_00_10_00>(m1, m2),
+                    _mm_shuffle_ps::<0b11_01_11_01>(m1, m2),
+                );
+                let s = _mm_shuffle_ps::<0b11_01_10_00>(h, h);
+                _mm_storeu_ps(out.as_mut_ptr(), s);
+            } else {
+                let acc = _mm_add_ps(t1, _mm_movehl_ps(t1, t1));
+                let m = _mm_mul_ps(acc, _mm_set_ps(0.0, 0.0, wx[1], wx[0]));
+                out[0] = _mm_cvtss_f32(_mm_add_ss(m, _mm_shuffle_ps::<0b01>(m, m)));
+            }
+        }
+        out
+    }
+
     /// [`super::sums`] for S = 4, the same operations in the same order four lanes at a
     /// time (so bit-identical to it); `row(j, k)` gives row j of slice k as 4 lanes, `w`
     /// and `d` the value and derivative weights of the x, y and z axes.
@@ -555,6 +637,48 @@ mod tests {
             assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "{a:?} vs {b:?}");
             let a = sse::sums4::<false>(row, &wv, &dv)[0];
             let b = sums::<4, false>(|j, k| nb[k][j], &w, &d)[0];
+            assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b}");
+        }
+    }
+
+    /// The SSE support-2 sums are bit-identical to the generic loop, with rows from f32
+    /// and from i16 voxels, value only and with the gradient.
+    #[test]
+    fn sse_sums2_match_generic_bit_for_bit() {
+        let mut g = Lcg(5);
+        for n in 0..4000 {
+            let nb: [[[f32; 2]; 2]; 2] = core::array::from_fn(|_| {
+                core::array::from_fn(|_| {
+                    core::array::from_fn(|_| {
+                        let x = g.next();
+                        if n % 2 == 0 {
+                            x
+                        } else {
+                            (x * 30.0) as i16 as f32
+                        }
+                    })
+                })
+            });
+            let w: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
+            let d: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
+            // Rows (j, k) at j * 2 + k * 4 of a flat array, loaded as the volume path does.
+            let flat: [f32; 8] = core::array::from_fn(|i| nb[i / 4][(i / 2) % 2][i % 2]);
+            let short: [i16; 8] = flat.map(|x| x as i16);
+            // SAFETY: every pointer has two readable voxels after it.
+            let rows = unsafe {
+                if n % 2 == 0 {
+                    let p = flat.as_ptr();
+                    f32::load2x4(p, p.add(2), p.add(4), p.add(6))
+                } else {
+                    let p = short.as_ptr();
+                    i16::load2x4(p, p.add(2), p.add(4), p.add(6))
+                }
+            };
+            let a = sse::sums2::<true>(rows, &w, &d);
+            let b = sums::<2, true>(|j, k| nb[k][j], &w, &d);
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "{a:?} vs {b:?}");
+            let a = sse::sums2::<false>(rows, &w, &d)[0];
+            let b = sums::<2, false>(|j, k| nb[k][j], &w, &d)[0];
             assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b}");
         }
     }

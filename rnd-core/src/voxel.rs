@@ -31,6 +31,18 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     /// support AVX2.
     #[cfg(target_arch = "x86_64")]
     unsafe fn load4x2(p: *const Self, q: *const Self) -> core::arch::x86_64::__m256;
+    /// Four rows of two voxels, as two vectors of f32 lanes: `[*a, *(a+1), *b, *(b+1)]`
+    /// and `[*c, *(c+1), *d, *(d+1)]` (SSE2).
+    ///
+    /// # Safety
+    /// Each pointer must point at two readable consecutive voxels.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load2x4(
+        a: *const Self,
+        b: *const Self,
+        c: *const Self,
+        d: *const Self,
+    ) -> [core::arch::x86_64::__m128; 2];
 }
 
 impl Voxel for f32 {
@@ -55,6 +67,24 @@ impl Voxel for f32 {
     unsafe fn load4x2(p: *const f32, q: *const f32) -> core::arch::x86_64::__m256 {
         // SAFETY: the caller guarantees 4 readable f32 at p and at q.
         unsafe { core::arch::x86_64::_mm256_loadu2_m128(q, p) }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn load2x4(
+        a: *const f32,
+        b: *const f32,
+        c: *const f32,
+        d: *const f32,
+    ) -> [core::arch::x86_64::__m128; 2] {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees two readable f32 (8 bytes) at each pointer, which
+        // is what each unaligned 64-bit load reads; SSE2 is x86_64 baseline.
+        unsafe {
+            let two = |p: *const f32, q: *const f32| {
+                _mm_castpd_ps(_mm_loadh_pd(_mm_load_sd(p as *const f64), q as *const f64))
+            };
+            [two(a, b), two(c, d)]
+        }
     }
 }
 
@@ -88,6 +118,29 @@ impl Voxel for i16 {
             let lo = _mm_loadl_epi64(p as *const __m128i);
             let both = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), q as *const f64));
             _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(both))
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn load2x4(
+        a: *const i16,
+        b: *const i16,
+        c: *const i16,
+        d: *const i16,
+    ) -> [core::arch::x86_64::__m128; 2] {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees two readable i16 (4 bytes) at each pointer, read
+        // unaligned; SSE2 is x86_64 baseline. The eight values are packed into one
+        // register, then each half is sign-extended (interleave with itself, shift right
+        // arithmetically) and converted, all exactly.
+        unsafe {
+            let w = |p: *const i16| _mm_cvtsi32_si128((p as *const i32).read_unaligned());
+            let ab = _mm_unpacklo_epi32(w(a), w(b));
+            let cd = _mm_unpacklo_epi32(w(c), w(d));
+            let all = _mm_unpacklo_epi64(ab, cd);
+            let lo = _mm_srai_epi32::<16>(_mm_unpacklo_epi16(all, all));
+            let hi = _mm_srai_epi32::<16>(_mm_unpackhi_epi16(all, all));
+            [_mm_cvtepi32_ps(lo), _mm_cvtepi32_ps(hi)]
         }
     }
 }

@@ -174,7 +174,11 @@ fn advise_huge_pages(addr: usize, len: usize) {
         // SAFETY: as above, on the pages that hold the allocation [addr, addr + len);
         // populating pages for writing does not change any contents.
         unsafe {
-            libc::madvise(first as *mut libc::c_void, last - first, libc::MADV_POPULATE_WRITE);
+            libc::madvise(
+                first as *mut libc::c_void,
+                last - first,
+                libc::MADV_POPULATE_WRITE,
+            );
         }
     }
     #[cfg(not(target_os = "linux"))]
