@@ -8,7 +8,7 @@ use alloc::vec::Vec;
 
 use crate::blend::{Accum, Blend};
 use crate::camera::{Camera, CameraSpec};
-use crate::convo::{grad_to_world, locate, place, Convo, ConvoSample, Place};
+use crate::convo::{grad_to_world, locate, place, world_gmags, Convo, ConvoSample, Place};
 use crate::error::{Error, ErrorKind, Result};
 use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
@@ -747,12 +747,10 @@ impl RenderSpec<'_> {
                 convo.sums_run::<G, LANES>(&start_i, &step_i, k, &mut res);
                 if scalars {
                     // One channel under max/sum/mean: no early end, no colour.
-                    let xs: [f32; LANES] = core::array::from_fn(|i| match p.probe {
-                        Probe::GradMag => {
-                            gmag(&grad_to_world(&gmat, [res[i][1], res[i][2], res[i][3]]))
-                        }
-                        _ => res[i][0],
-                    });
+                    let xs: [f32; LANES] = match p.probe {
+                        Probe::GradMag => world_gmags(&gmat, &res),
+                        _ => res.map(|r| r[0]),
+                    };
                     acc.add_scalars(&xs);
                 } else if (0..LANES).any(|i| take(&mut acc, k + i as u32, res[i])) {
                     break;
