@@ -1,58 +1,84 @@
-//! AVX2, chosen at run time: the support-4 sums of two samples at once, one sample in
-//! each 128-bit half of the 256-bit registers. Every lane sees exactly the operations of
-//! the SSE path ([`crate::convo`]), so the results are the same bits with or without
-//! AVX2, on every x86_64 processor.
+//! AVX2 and AVX-512, chosen at run time: the support-4 sums of two (AVX2) or four
+//! (AVX-512) samples at once, one sample in each 128-bit lane of the 256- or 512-bit
+//! registers. Every lane sees exactly the operations of the SSE path ([`crate::convo`]),
+//! so the results are the same bits whichever is used, on every x86_64 processor.
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
-/// 0: not yet detected; 1: off; 2: on.
+/// 0: not yet detected; 1: off; 2: AVX2; 3: AVX2 and AVX-512.
 static STATE: AtomicU8 = AtomicU8::new(0);
+
+/// The level in use (see [`STATE`]), detecting it the first time.
+fn level() -> u8 {
+    match STATE.load(Ordering::Relaxed) {
+        0 => {
+            let l = detect();
+            STATE.store(l, Ordering::Relaxed);
+            l
+        }
+        l => l,
+    }
+}
 
 /// Whether the AVX2 paths are used: the processor and the operating system support
 /// AVX2, and [`set_avx2`] has not turned them off.
 pub fn avx2_enabled() -> bool {
-    match STATE.load(Ordering::Relaxed) {
-        0 => {
-            let on = detect();
-            STATE.store(if on { 2 } else { 1 }, Ordering::Relaxed);
-            on
-        }
-        s => s == 2,
-    }
+    level() >= 2
 }
 
-/// Turns the AVX2 paths off (`false`), or back on where supported (`true`). Images are
-/// the same bits either way; this is for comparisons and benchmarks. Takes effect for
-/// convolution states created afterwards.
+/// Whether the AVX-512 paths are used too (the processor and operating system support
+/// AVX-512F, and [`set_avx2`] has not turned the vector paths off).
+pub fn avx512_enabled() -> bool {
+    level() >= 3
+}
+
+/// Turns the AVX2 and AVX-512 paths off (`false`), or back on where supported
+/// (`true`). Images are the same bits either way; this is for comparisons and
+/// benchmarks. Takes effect for convolution states created afterwards.
 pub fn set_avx2(on: bool) {
-    let on = on && detect();
-    STATE.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+    STATE.store(if on { detect() } else { 1 }, Ordering::Relaxed);
 }
 
+/// Leaves AVX2 on but turns the AVX-512 paths off (for comparisons).
+pub fn set_avx512(on: bool) {
+    let l = detect();
+    STATE.store(if on { l } else { l.min(2) }, Ordering::Relaxed);
+}
+
+/// The best level the processor and operating system support (1, 2 or 3).
 #[cfg(target_arch = "x86_64")]
-fn detect() -> bool {
+fn detect() -> u8 {
     use core::arch::x86_64::{__cpuid, __cpuid_count};
     // CPUID leaf 1: OSXSAVE (ecx bit 27) and AVX (bit 28); XCR0 bits 1 and 2: the
-    // operating system saves SSE and AVX state; leaf 7: AVX2 (ebx bit 5).
+    // operating system saves SSE and AVX state; leaf 7: AVX2 (ebx bit 5), AVX-512F (ebx
+    // bit 16), whose state (XCR0 bits 5 to 7) the system must save too.
     #[allow(unused_unsafe)]
     // SAFETY: CPUID exists on every x86_64 processor.
     let (max, l1) = unsafe { (__cpuid(0).eax, __cpuid(1)) };
     if max < 7 || l1.ecx & (1 << 27) == 0 || l1.ecx & (1 << 28) == 0 {
-        return false;
+        return 1;
     }
     // SAFETY: OSXSAVE is set, so XGETBV is available.
-    if unsafe { xcr0() } & 6 != 6 {
-        return false;
+    let xcr0 = unsafe { xcr0() };
+    if xcr0 & 6 != 6 {
+        return 1;
     }
     #[allow(unused_unsafe)]
     // SAFETY: as above; leaf 7 exists (max >= 7).
     let l7 = unsafe { __cpuid_count(7, 0) };
-    l7.ebx & (1 << 5) != 0
+    match (
+        l7.ebx & (1 << 5) != 0,
+        l7.ebx & (1 << 16) != 0 && xcr0 & 0xE0 == 0xE0,
+    ) {
+        (true, true) => 3,
+        (true, false) => 2,
+        _ => 1,
+    }
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-fn detect() -> bool {
-    false
+fn detect() -> u8 {
+    1
 }
 
 /// The extended control register XCR0.
@@ -72,47 +98,215 @@ mod imp {
 
     use crate::voxel::Voxel;
 
+    /// The sums of `N` samples, `L` per register (one per 128-bit lane), for one vector
+    /// width: `$vt` the register type, `$feat` its target feature, `$load` the row loader
+    /// (`L` pointers), `$xs` a function putting `L` scalars each into a whole 128-bit
+    /// lane, `$bc` one putting four f32 into every 128-bit lane, and the intrinsics.
+    macro_rules! lane_sums {
+        ($name:ident, $feat:literal, $vt:ty, $l:literal, $load:ident, $xs:ident, $bc:ident,
+         $zero:ident, $mul:ident, $add:ident, $shuf:ident, $unlo:ident, $unhi:ident,
+         $store:ident) => {
+            /// Phase 1 (weights) and phase 2 (sums) for `N` samples whose supports
+            /// start at `base` and whose offsets (as f32) are `alpha`, in the order of
+            /// `convo::sums`, lane for lane the SSE path.
+            ///
+            /// # Safety
+            /// The CPU supports the feature, `N` is a multiple of the samples per
+            /// register, and every support's last voxel `base[i] + 3 (1 + s0 + s01)`
+            /// lies inside `data`.
+            #[inline]
+            #[target_feature(enable = $feat)]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn $name<V: Voxel, const G: bool, const N: usize>(
+                data: &[V],
+                base: &[usize; N],
+                s0: usize,
+                s01: usize,
+                alpha: &[[f32; 3]; N],
+                co: &[[[f32; 4]; 4]; 2],
+                out: &mut [[f32; 4]; N],
+            ) {
+                const L: usize = $l;
+                debug_assert!(N % L == 0);
+                let zero = $zero();
+                let horner = |c: &[[f32; 4]; 4], x: $vt| {
+                    let t = $add($mul($bc(&c[3]), x), $bc(&c[2]));
+                    let t = $add($mul(t, x), $bc(&c[1]));
+                    $add($mul(t, x), $bc(&c[0]))
+                };
+                let lane = |v: $vt, i: usize| match i {
+                    0 => $shuf::<0x00>(v, v),
+                    1 => $shuf::<0x55>(v, v),
+                    2 => $shuf::<0xAA>(v, v),
+                    _ => $shuf::<0xFF>(v, v),
+                };
+                // Phase 1: the weights of every register's samples.
+                let mut w = [[zero; 3]; N];
+                let mut d = [[zero; 3]; N];
+                for i in 0..N / L {
+                    for ax in 0..3 {
+                        let x = $xs(core::array::from_fn(|s| alpha[L * i + s][ax]));
+                        w[i][ax] = horner(&co[0], x);
+                        if G {
+                            d[i][ax] = horner(&co[1], x);
+                        }
+                    }
+                }
+                // Phase 2: the sums.
+                let ptr = data.as_ptr();
+                for i in 0..N / L {
+                    let b: [usize; L] = core::array::from_fn(|s| base[L * i + s]);
+                    let row = |j: usize, k: usize| {
+                        let o = j * s0 + k * s01;
+                        // SAFETY: row (j, k) of every sample ends at or before its
+                        // support's last voxel, inside `data` (caller); the CPU has the
+                        // feature (caller).
+                        unsafe { V::$load(core::array::from_fn(|s| ptr.add(b[s] + o))) }
+                    };
+                    let (w, d) = (&w[i], &d[i]);
+                    let (mut acc, mut accy, mut accz) = (zero, zero, zero);
+                    for j in 0..4 {
+                        let r0 = row(j, 0);
+                        let mut p = $mul(lane(w[2], 0), r0);
+                        let mut q = if G { $mul(lane(d[2], 0), r0) } else { zero };
+                        for k in 1..4 {
+                            let r = row(j, k);
+                            p = $add(p, $mul(lane(w[2], k), r));
+                            if G {
+                                q = $add(q, $mul(lane(d[2], k), r));
+                            }
+                        }
+                        let (wy, dy) = (lane(w[1], j), lane(d[1], j));
+                        if j == 0 {
+                            acc = $mul(wy, p);
+                            if G {
+                                accy = $mul(dy, p);
+                                accz = $mul(wy, q);
+                            }
+                        } else {
+                            acc = $add(acc, $mul(wy, p));
+                            if G {
+                                accy = $add(accy, $mul(dy, p));
+                                accz = $add(accz, $mul(wy, q));
+                            }
+                        }
+                    }
+                    let wx = w[0];
+                    let m0 = $mul(wx, acc);
+                    let mut res = [0.0f32; 4 * L];
+                    if G {
+                        let m1 = $mul(d[0], acc);
+                        let m2 = $mul(wx, accy);
+                        let m3 = $mul(wx, accz);
+                        // In each 128-bit lane, the transpose of the SSE path, then the
+                        // same column sums.
+                        let t0 = $unlo(m0, m1);
+                        let t1 = $unlo(m2, m3);
+                        let t2 = $unhi(m0, m1);
+                        let t3 = $unhi(m2, m3);
+                        let c0 = $shuf::<0x44>(t0, t1);
+                        let c1 = $shuf::<0xEE>(t0, t1);
+                        let c2 = $shuf::<0x44>(t2, t3);
+                        let c3 = $shuf::<0xEE>(t2, t3);
+                        let s = $add($add($add(c0, c1), c2), c3);
+                        // SAFETY: writes the 4 L f32 of `res`.
+                        unsafe { $store(res.as_mut_ptr(), s) };
+                        for s in 0..L {
+                            out[L * i + s] =
+                                [res[4 * s], res[4 * s + 1], res[4 * s + 2], res[4 * s + 3]];
+                        }
+                    } else {
+                        let s = $add(m0, $shuf::<0b01>(m0, m0));
+                        let s = $add(s, $shuf::<0b10>(m0, m0));
+                        let s = $add(s, $shuf::<0b11>(m0, m0));
+                        // SAFETY: writes the 4 L f32 of `res`.
+                        unsafe { $store(res.as_mut_ptr(), s) };
+                        for s in 0..L {
+                            out[L * i + s] = [res[4 * s], 0.0, 0.0, 0.0];
+                        }
+                    }
+                }
+            }
+        };
+    }
+
+    /// Two scalars, each in all four lanes of one half.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn xs2(a: [f32; 2]) -> __m256 {
+        _mm256_set_m128(_mm_set1_ps(a[1]), _mm_set1_ps(a[0]))
+    }
+
     /// The same four f32 in both halves.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn both(x: &[f32; 4]) -> __m256 {
+    fn bc2(x: &[f32; 4]) -> __m256 {
         // SAFETY: reads the 4 f32 of `x`.
         let v = unsafe { _mm_loadu_ps(x.as_ptr()) };
         _mm256_set_m128(v, v)
     }
 
-    /// Cubic Horner evaluation of coefficient rows `co` (as `sse::horner`) at `a` in the
-    /// low half and `b` in the high half.
+    /// Four scalars, each in all four lanes of one 128-bit lane.
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn horner(co: &[[f32; 4]; 4], a: f32, b: f32) -> __m256 {
-        let x = _mm256_set_m128(_mm_set1_ps(b), _mm_set1_ps(a));
-        let t = _mm256_add_ps(_mm256_mul_ps(both(&co[3]), x), both(&co[2]));
-        let t = _mm256_add_ps(_mm256_mul_ps(t, x), both(&co[1]));
-        _mm256_add_ps(_mm256_mul_ps(t, x), both(&co[0]))
+    #[target_feature(enable = "avx512f")]
+    fn xs4(a: [f32; 4]) -> __m512 {
+        let v = _mm512_castps128_ps512(_mm_set1_ps(a[0]));
+        let v = _mm512_insertf32x4::<1>(v, _mm_set1_ps(a[1]));
+        let v = _mm512_insertf32x4::<2>(v, _mm_set1_ps(a[2]));
+        _mm512_insertf32x4::<3>(v, _mm_set1_ps(a[3]))
     }
 
-    /// Lane `i` of each half of `v` throughout that half.
+    /// The same four f32 in all four 128-bit lanes.
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lane(v: __m256, i: usize) -> __m256 {
-        match i {
-            0 => _mm256_shuffle_ps::<0x00>(v, v),
-            1 => _mm256_shuffle_ps::<0x55>(v, v),
-            2 => _mm256_shuffle_ps::<0xAA>(v, v),
-            _ => _mm256_shuffle_ps::<0xFF>(v, v),
-        }
+    #[target_feature(enable = "avx512f")]
+    fn bc4(x: &[f32; 4]) -> __m512 {
+        // SAFETY: reads the 4 f32 of `x`.
+        _mm512_broadcast_f32x4(unsafe { _mm_loadu_ps(x.as_ptr()) })
     }
+
+    lane_sums!(
+        pairs,
+        "avx2",
+        __m256,
+        2,
+        load4x2,
+        xs2,
+        bc2,
+        _mm256_setzero_ps,
+        _mm256_mul_ps,
+        _mm256_add_ps,
+        _mm256_shuffle_ps,
+        _mm256_unpacklo_ps,
+        _mm256_unpackhi_ps,
+        _mm256_storeu_ps
+    );
+    lane_sums!(
+        quads,
+        "avx512f",
+        __m512,
+        4,
+        load4x4,
+        xs4,
+        bc4,
+        _mm512_setzero_ps,
+        _mm512_mul_ps,
+        _mm512_add_ps,
+        _mm512_shuffle_ps,
+        _mm512_unpacklo_ps,
+        _mm512_unpackhi_ps,
+        _mm512_storeu_ps
+    );
 
     /// Support-4 sums [value, ∂x, ∂y, ∂z] (the last three only when `G`) of `N`
-    /// samples, two at a time: sample i's support starts at voxel `base[i]` of `data`
-    /// (rows `s0` apart, slices `s01` apart), its fractional offsets are `alpha[i]`, and
-    /// `co` holds the kernel's cubic coefficients for the value and the derivative.
-    /// Bit for bit what `Convo::sums` gives for each sample.
+    /// samples: sample i's support starts at voxel `base[i]` of `data` (rows `s0`
+    /// apart, slices `s01` apart), its fractional offsets are `alpha[i]`, and `co` holds
+    /// the kernel's cubic coefficients for the value and the derivative. Four samples
+    /// per register with AVX-512 (`wide`), else two. Bit for bit what `Convo::sums`
+    /// gives for each sample.
     ///
     /// # Safety
-    /// The CPU supports AVX2, `N` is even, and for every i the voxel
-    /// `base[i] + 3 (1 + s0 + s01)` lies inside `data`.
+    /// The CPU supports AVX2 (and AVX-512F when `wide`), `N` is a multiple of 4, and
+    /// for every i the voxel `base[i] + 3 (1 + s0 + s01)` lies inside `data`.
     #[inline]
     #[target_feature(enable = "avx2")]
     #[allow(clippy::too_many_arguments)]
@@ -123,11 +317,18 @@ mod imp {
         s01: usize,
         alpha: &[[f64; 3]; N],
         co: &[[[f32; 4]; 4]; 2],
+        wide: bool,
         out: &mut [[f32; 4]; N],
     ) {
         let al: [[f32; 3]; N] = core::array::from_fn(|i| alpha[i].map(|a| a as f32));
         // SAFETY: passed on from the caller.
-        unsafe { pairs::<V, G, N>(data, base, s0, s01, &al, co, out) }
+        unsafe {
+            if wide {
+                quads::<V, G, N>(data, base, s0, s01, &al, co, out)
+            } else {
+                pairs::<V, G, N>(data, base, s0, s01, &al, co, out)
+            }
+        }
     }
 
     /// [`sums_pairs`] for the `N` consecutive samples k, k + 1, … of the ray `start +
@@ -137,7 +338,7 @@ mod imp {
     /// as the scalar code, so the same bits.
     ///
     /// # Safety
-    /// The CPU supports AVX2 and `N` is even.
+    /// The CPU supports AVX2 (and AVX-512F when `wide`), and `N` is a multiple of 4.
     #[inline]
     #[target_feature(enable = "avx2")]
     #[allow(clippy::too_many_arguments)]
@@ -150,6 +351,7 @@ mod imp {
         step: &[f64; 3],
         k: u32,
         co: &[[[f32; 4]; 4]; 2],
+        wide: bool,
         out: &mut [[f32; 4]; N],
     ) {
         let st = _mm256_set_pd(0.0, start[2], start[1], start[0]);
@@ -177,112 +379,13 @@ mod imp {
             base[i] = b;
             al[i] = [af[0], af[1], af[2]];
         }
-        // SAFETY: AVX2 (caller), N even (caller), every support checked above.
-        unsafe { pairs::<V, G, N>(data, &base, s0, s01, &al, co, out) }
-    }
-
-    /// Phase 1 (weights) and phase 2 (sums) of [`sums_pairs`], offsets already in f32.
-    ///
-    /// # Safety
-    /// As [`sums_pairs`].
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn pairs<V: Voxel, const G: bool, const N: usize>(
-        data: &[V],
-        base: &[usize; N],
-        s0: usize,
-        s01: usize,
-        alpha: &[[f32; 3]; N],
-        co: &[[[f32; 4]; 4]; 2],
-        out: &mut [[f32; 4]; N],
-    ) {
-        debug_assert!(N % 2 == 0);
-        let zero = _mm256_setzero_ps();
-        // Phase 1: the weights of every pair (value, and derivative when G).
-        let mut w = [[zero; 3]; N];
-        let mut d = [[zero; 3]; N];
-        for i in 0..N / 2 {
-            let (a, b) = (&alpha[2 * i], &alpha[2 * i + 1]);
-            for ax in 0..3 {
-                w[i][ax] = horner(&co[0], a[ax], b[ax]);
-                if G {
-                    d[i][ax] = horner(&co[1], a[ax], b[ax]);
-                }
-            }
-        }
-        // Phase 2: the sums of every pair, in the order of `convo::sums`.
-        let ptr = data.as_ptr();
-        for i in 0..N / 2 {
-            let (ba, bb) = (base[2 * i], base[2 * i + 1]);
-            let row = |j: usize, k: usize| {
-                let o = j * s0 + k * s01;
-                // SAFETY: row (j, k) of either sample ends at or before its support's
-                // last voxel, which the caller guarantees is inside `data`; AVX2 is
-                // supported (caller).
-                unsafe { V::load4x2(ptr.add(ba + o), ptr.add(bb + o)) }
-            };
-            let (w, d) = (&w[i], &d[i]);
-            let (mut acc, mut accy, mut accz) = (zero, zero, zero);
-            for j in 0..4 {
-                let r0 = row(j, 0);
-                let mut p = _mm256_mul_ps(lane(w[2], 0), r0);
-                let mut q = if G {
-                    _mm256_mul_ps(lane(d[2], 0), r0)
-                } else {
-                    zero
-                };
-                for k in 1..4 {
-                    let r = row(j, k);
-                    p = _mm256_add_ps(p, _mm256_mul_ps(lane(w[2], k), r));
-                    if G {
-                        q = _mm256_add_ps(q, _mm256_mul_ps(lane(d[2], k), r));
-                    }
-                }
-                let (wy, dy) = (lane(w[1], j), lane(d[1], j));
-                if j == 0 {
-                    acc = _mm256_mul_ps(wy, p);
-                    if G {
-                        accy = _mm256_mul_ps(dy, p);
-                        accz = _mm256_mul_ps(wy, q);
-                    }
-                } else {
-                    acc = _mm256_add_ps(acc, _mm256_mul_ps(wy, p));
-                    if G {
-                        accy = _mm256_add_ps(accy, _mm256_mul_ps(dy, p));
-                        accz = _mm256_add_ps(accz, _mm256_mul_ps(wy, q));
-                    }
-                }
-            }
-            let wx = w[0];
-            let m0 = _mm256_mul_ps(wx, acc);
-            let mut res = [0.0f32; 8];
-            if G {
-                let m1 = _mm256_mul_ps(d[0], acc);
-                let m2 = _mm256_mul_ps(wx, accy);
-                let m3 = _mm256_mul_ps(wx, accz);
-                // In each half, the transpose of the SSE path, then the same column sums.
-                let t0 = _mm256_unpacklo_ps(m0, m1);
-                let t1 = _mm256_unpacklo_ps(m2, m3);
-                let t2 = _mm256_unpackhi_ps(m0, m1);
-                let t3 = _mm256_unpackhi_ps(m2, m3);
-                let c0 = _mm256_shuffle_ps::<0x44>(t0, t1);
-                let c1 = _mm256_shuffle_ps::<0xEE>(t0, t1);
-                let c2 = _mm256_shuffle_ps::<0x44>(t2, t3);
-                let c3 = _mm256_shuffle_ps::<0xEE>(t2, t3);
-                let s = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(c0, c1), c2), c3);
-                // SAFETY: writes the 8 f32 of `res`.
-                unsafe { _mm256_storeu_ps(res.as_mut_ptr(), s) };
-                out[2 * i] = [res[0], res[1], res[2], res[3]];
-                out[2 * i + 1] = [res[4], res[5], res[6], res[7]];
+        // SAFETY: the features (caller), N a multiple of 4 (caller), every support
+        // checked above.
+        unsafe {
+            if wide {
+                quads::<V, G, N>(data, &base, s0, s01, &al, co, out)
             } else {
-                let s = _mm256_add_ps(m0, _mm256_shuffle_ps::<0b01>(m0, m0));
-                let s = _mm256_add_ps(s, _mm256_shuffle_ps::<0b10>(m0, m0));
-                let s = _mm256_add_ps(s, _mm256_shuffle_ps::<0b11>(m0, m0));
-                // SAFETY: writes the 8 f32 of `res`.
-                unsafe { _mm256_storeu_ps(res.as_mut_ptr(), s) };
-                out[2 * i] = [res[0], 0.0, 0.0, 0.0];
-                out[2 * i + 1] = [res[4], 0.0, 0.0, 0.0];
+                pairs::<V, G, N>(data, &base, s0, s01, &al, co, out)
             }
         }
     }

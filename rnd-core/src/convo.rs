@@ -37,8 +37,10 @@ pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
     sizes: [i64; 3],
     /// Transpose of WtoI's 3×3 (maps index-space gradients to world space).
     gmat: [[f32; 3]; 3],
-    /// Whether batches use the AVX2 pair sums (same bits, see [`crate::avx`]).
+    /// Whether batches use the AVX2 pair sums, and the AVX-512 quad sums (same bits, see
+    /// [`crate::avx`]).
     avx: bool,
+    avx512: bool,
     _k: PhantomData<K>,
 }
 
@@ -62,6 +64,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             sizes: [s[0] as i64, s[1] as i64, s[2] as i64],
             gmat,
             avx: crate::avx::avx2_enabled(),
+            avx512: crate::avx::avx512_enabled(),
             _k: PhantomData,
         }
     }
@@ -166,13 +169,13 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         out: &mut [[f32; 4]; N],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if let (4, true, 0, Some(co)) = (S, self.avx, N % 2, K::CUBIC4) {
+        if let (4, true, 0, Some(co)) = (S, self.avx, N % 4, K::CUBIC4) {
             let (s0, s01) = (
                 self.sizes[0] as usize,
                 (self.sizes[0] * self.sizes[1]) as usize,
             );
-            // SAFETY: AVX2 is available (self.avx) and N is even; the supports are
-            // checked inside.
+            // SAFETY: AVX2 is available (self.avx), AVX-512F too when self.avx512, and N
+            // is a multiple of 4; the supports are checked inside.
             unsafe {
                 crate::avx::sums_run::<V, G, N>(
                     self.vol.data(),
@@ -183,6 +186,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
                     step,
                     k,
                     &co,
+                    self.avx512,
                     out,
                 )
             };
@@ -222,10 +226,13 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             b
         });
         #[cfg(target_arch = "x86_64")]
-        if let (4, true, 0, Some(co)) = (S, self.avx, N % 2, K::CUBIC4) {
-            // SAFETY: AVX2 is available (self.avx), N is even, and every support's
-            // last voxel was checked above.
-            unsafe { crate::avx::sums_pairs::<V, G, N>(data, &base, s0, s01, alpha, &co, out) };
+        if let (4, true, 0, Some(co)) = (S, self.avx, N % 4, K::CUBIC4) {
+            let wide = self.avx512;
+            // SAFETY: AVX2 is available (self.avx), AVX-512F too when wide, N is a
+            // multiple of 4, and every support's last voxel was checked above.
+            unsafe {
+                crate::avx::sums_pairs::<V, G, N>(data, &base, s0, s01, alpha, &co, wide, out)
+            };
             return;
         }
         #[cfg(target_arch = "x86_64")]
@@ -788,6 +795,9 @@ mod tests {
             let mut sse = Convo::<V, K, 4>::new(vol);
             assert!(c.avx);
             sse.avx = false;
+            // AVX2 pairs also where the processor would use AVX-512 quads: both checked.
+            let mut pairs = Convo::<V, K, 4>::new(vol);
+            pairs.avx512 = false;
             for _ in 0..300 {
                 let n: [[i64; 3]; 8] = core::array::from_fn(|_| {
                     core::array::from_fn(|a| (g.next().abs() * 97.0) as i64 % (sizes[a] as i64 - 3))
@@ -798,6 +808,17 @@ mod tests {
                 let (mut a, mut b) = ([[0.0f32; 4]; 8], [[0.0f32; 4]; 8]);
                 c.sums_n::<true, 8>(&n, &alpha, &mut a);
                 sse.sums_n::<true, 8>(&n, &alpha, &mut b);
+                assert_eq!(
+                    a.map(|r| r.map(f32::to_bits)),
+                    b.map(|r| r.map(f32::to_bits))
+                );
+                pairs.sums_n::<true, 8>(&n, &alpha, &mut a);
+                assert_eq!(
+                    a.map(|r| r.map(f32::to_bits)),
+                    b.map(|r| r.map(f32::to_bits))
+                );
+                pairs.sums_n::<false, 8>(&n, &alpha, &mut a);
+                sse.sums_n::<false, 8>(&n, &alpha, &mut b);
                 assert_eq!(
                     a.map(|r| r.map(f32::to_bits)),
                     b.map(|r| r.map(f32::to_bits))

@@ -23,14 +23,22 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     /// `p` must point at four readable consecutive voxels.
     #[cfg(target_arch = "x86_64")]
     unsafe fn load4(p: *const Self) -> core::arch::x86_64::__m128;
-    /// Two rows of four voxels, from `p` in the low 128 bits and from `q` in the high
-    /// 128 bits, converted to f32 lanes (AVX2).
+    /// Two rows of four voxels, from `p[0]` in the low 128 bits and from `p[1]` in the
+    /// high 128 bits, converted to f32 lanes (AVX2).
     ///
     /// # Safety
-    /// `p` and `q` must each point at four readable consecutive voxels, and the CPU must
+    /// Each pointer must point at four readable consecutive voxels, and the CPU must
     /// support AVX2.
     #[cfg(target_arch = "x86_64")]
-    unsafe fn load4x2(p: *const Self, q: *const Self) -> core::arch::x86_64::__m256;
+    unsafe fn load4x2(p: [*const Self; 2]) -> core::arch::x86_64::__m256;
+    /// Four rows of four voxels, from `p[i]` in 128-bit lane i, converted to f32 lanes
+    /// (AVX-512F).
+    ///
+    /// # Safety
+    /// Each pointer must point at four readable consecutive voxels, and the CPU must
+    /// support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load4x4(p: [*const Self; 4]) -> core::arch::x86_64::__m512;
     /// Four rows of two voxels, as two vectors of f32 lanes: `[*a, *(a+1), *b, *(b+1)]`
     /// and `[*c, *(c+1), *d, *(d+1)]` (SSE2).
     ///
@@ -64,9 +72,22 @@ impl Voxel for f32 {
     #[cfg(target_arch = "x86_64")]
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn load4x2(p: *const f32, q: *const f32) -> core::arch::x86_64::__m256 {
-        // SAFETY: the caller guarantees 4 readable f32 at p and at q.
-        unsafe { core::arch::x86_64::_mm256_loadu2_m128(q, p) }
+    unsafe fn load4x2(p: [*const f32; 2]) -> core::arch::x86_64::__m256 {
+        // SAFETY: the caller guarantees 4 readable f32 at each pointer.
+        unsafe { core::arch::x86_64::_mm256_loadu2_m128(p[1], p[0]) }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load4x4(p: [*const f32; 4]) -> core::arch::x86_64::__m512 {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees 4 readable f32 at each pointer.
+        unsafe {
+            let v = _mm512_castps128_ps512(_mm_loadu_ps(p[0]));
+            let v = _mm512_insertf32x4::<1>(v, _mm_loadu_ps(p[1]));
+            let v = _mm512_insertf32x4::<2>(v, _mm_loadu_ps(p[2]));
+            _mm512_insertf32x4::<3>(v, _mm_loadu_ps(p[3]))
+        }
     }
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
@@ -109,15 +130,28 @@ impl Voxel for i16 {
     #[cfg(target_arch = "x86_64")]
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn load4x2(p: *const i16, q: *const i16) -> core::arch::x86_64::__m256 {
+    unsafe fn load4x2(p: [*const i16; 2]) -> core::arch::x86_64::__m256 {
         use core::arch::x86_64::*;
-        // SAFETY: the caller guarantees 4 readable i16 (8 bytes) at p and at q: one 64-bit
-        // load each into the two halves of a register, then sign extension to 32 bits
-        // and conversion (both exact).
+        // SAFETY: the caller guarantees 4 readable i16 (8 bytes) at each pointer: one
+        // 64-bit load each into the two halves of a register, then sign extension to 32
+        // bits and conversion (both exact).
         unsafe {
-            let lo = _mm_loadl_epi64(p as *const __m128i);
-            let both = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), q as *const f64));
+            let lo = _mm_loadl_epi64(p[0] as *const __m128i);
+            let both = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), p[1] as *const f64));
             _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(both))
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load4x4(p: [*const i16; 4]) -> core::arch::x86_64::__m512 {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees 4 readable i16 (8 bytes) at each pointer, read
+        // unaligned as one 64-bit integer each; sign extension and conversion are exact.
+        unsafe {
+            let q = p.map(|x| (x as *const i64).read_unaligned());
+            let all = _mm256_set_epi64x(q[3], q[2], q[1], q[0]);
+            _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(all))
         }
     }
     #[cfg(target_arch = "x86_64")]

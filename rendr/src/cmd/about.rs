@@ -31,7 +31,9 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          \n\
          Build: {} build, {}-bit {}, debug assertions {}; geometry in f64, convolution\n\
          and blending in f32 (\"real == float\", like the reference).\n\
-         Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.",
+         Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.\n\
+         Vector paths in use: {} (same images with any; RND_AVX2=0 or RND_AVX512=0\n\
+         turn the wider ones off).",
         env!("CARGO_PKG_VERSION"),
         if cfg!(debug_assertions) {
             "debug"
@@ -42,6 +44,15 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         std::env::consts::ARCH,
         if cfg!(debug_assertions) { "on" } else { "off" },
         rnd_std::parallel::default_threads(),
+        if rnd_core::avx::avx512_enabled() {
+            "SSE2, AVX2, AVX-512"
+        } else if rnd_core::avx::avx2_enabled() {
+            "SSE2, AVX2"
+        } else if cfg!(target_arch = "x86_64") {
+            "SSE2"
+        } else {
+            "none (portable code)"
+        },
     );
     Ok(())
 }
