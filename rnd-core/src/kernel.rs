@@ -35,7 +35,7 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     const NAME: KernelName;
     /// Offset of the first sample relative to the base index: `1 - S/2` for even S,
     /// `-(S-1)/2` for odd S.
-    const LO: i32 = if S % 2 == 0 {
+    const LO: i32 = if S.is_multiple_of(2) {
         1 - (S as i32) / 2
     } else {
         -((S as i32 - 1) / 2)
@@ -74,7 +74,7 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
         // makes it the floor. All in floating point: much shorter latency than a round
         // trip through the integer unit, and exact.
         const ROUND: f64 = 6_755_399_441_055_744.0;
-        let y = if S % 2 == 0 { x } else { x + 0.5 };
+        let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
         let r = (y + ROUND) - ROUND;
         let f = r - if r > y { 1.0 } else { 0.0 };
         (trunc_i64(f), x - f)

@@ -606,7 +606,7 @@ impl RenderSpec<'_> {
         // Support start n = floor(x + off) + LO, so starts [f, l] are the positions x in
         // [f − LO − off, l + 1 − LO − off). The estimate need not be exact: it is
         // checked below, so truncations stand in for floor and ceil.
-        let off = if S % 2 == 0 { 0.0 } else { 0.5 };
+        let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
         let mut est = (k1 - 1) as f64;
         for a in 0..3 {
             let [f, l] = bx[a];
