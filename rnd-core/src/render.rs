@@ -865,6 +865,10 @@ fn correct_alpha_ln(a: f32, l: f64, ex: f32) -> f32 {
     let a = a.clamp(0.0, 1.0);
     if a == 0.0 || a == 1.0 {
         a
+    } else if l == 0.0 {
+        // 1 − a rounds to 1 in f32: no opacity for any step (also an infinite one, where
+        // the product below would be ∞ · 0).
+        0.0
     } else {
         (1.0 - math::exp(ex as f64 * l)) as f32
     }

@@ -536,6 +536,37 @@ fn blinn_phong_on_a_sphere() {
     );
 }
 
+/// An opacity so small that 1 − α rounds to 1 in f32, corrected for a step so long that
+/// the exponent is infinite (found by the render fuzz target): the sample adds nothing,
+/// and no pixel is NaN (it was ∞ · 0), perspective and orthographic.
+#[test]
+fn tiny_opacity_over_an_infinite_step_is_transparent() {
+    let sv = SdgVolume::new(11, [6, 7, 8], false);
+    let lut = Lut::new(-1.0, 3.0, vec![[0.9, 0.5, 0.2, 7.5e-9]; 4]).unwrap();
+    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], true).unwrap()];
+    for ortho in [false, true] {
+        let mut p = RenderParams::new(cam(
+            [7.0, 8.0, 4.5],
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            -1.0,
+            9.0,
+            [5, 5],
+            ortho,
+        ));
+        p.plane_sep = 1.4e114;
+        p.unit_step = 3.65;
+        p.probe = Probe::RgbaLit;
+        p.blend = Blend::Over;
+        p.outside = 4.0;
+        let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
+        let img = render(&spec, sv.vol(), KernelName::Tent);
+        assert!(img.iter().all(|x| !x.is_nan()), "{img:?}");
+        // Rays through the volume take one sample, inside, with opacity 0.
+        assert!(img.chunks(4).any(|px| px == [0.0; 4]), "{img:?}");
+    }
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 24, .. Default::default() })]
 
