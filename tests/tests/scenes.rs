@@ -536,6 +536,27 @@ fn blinn_phong_on_a_sphere() {
     );
 }
 
+/// Renders with `p` (the accelerated loop and skipping as `p` says) and with the plain
+/// loop, no skipping; None when `p` does not validate.
+fn fast_and_plain(
+    mut p: RenderParams,
+    lut: &Lut,
+    lev: Option<&Levoy>,
+    lights: &[Light],
+    vol: AnyVolume<'_>,
+    k: KernelName,
+) -> Option<(Vec<f32>, Vec<f32>)> {
+    let fast = render(
+        &RenderSpec::new(p.clone(), Some(lut), lev, lights).ok()?,
+        vol,
+        k,
+    );
+    p.fast_loop = false;
+    p.skip_empty = false;
+    let plain = render(&RenderSpec::new(p, Some(lut), lev, lights).ok()?, vol, k);
+    Some((fast, plain))
+}
+
 /// An opacity so small that 1 − α rounds to 1 in f32, corrected for a step so long that
 /// the exponent is infinite (found by the render fuzz target): the sample adds nothing,
 /// and no pixel is NaN (it was ∞ · 0), perspective and orthographic.
@@ -835,14 +856,10 @@ proptest::proptest! {
         p.outside = f32::NAN;
         let lev = if levoy { Some(&lev) } else { None };
         let k = KernelName::ALL[ki];
-        let Ok(spec) = RenderSpec::new(p.clone(), Some(&lut), lev, &lights) else {
+        let Some((fast, plain)) = fast_and_plain(p, &lut, lev, &lights, vol, k) else {
             // Up vector parallel to the view direction: nothing to compare.
             return Ok(());
         };
-        let fast = render(&spec, vol, k);
-        p.fast_loop = false;
-        p.skip_empty = false;
-        let plain = render(&RenderSpec::new(p, Some(&lut), lev, &lights).unwrap(), vol, k);
         proptest::prop_assert!(
             fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
             "{k} {probe} {blend}: {fast:?} vs {plain:?}"
@@ -877,13 +894,9 @@ proptest::proptest! {
         p.probe = if lit { Probe::RgbaLit } else { Probe::Rgba };
         p.blend = Blend::Over;
         let k = KernelName::ALL[ki];
-        let Ok(spec) = RenderSpec::new(p.clone(), Some(&lut), None, &lights) else {
+        let Some((fast, plain)) = fast_and_plain(p, &lut, None, &lights, vol, k) else {
             return Ok(());
         };
-        let fast = render(&spec, vol, k);
-        p.fast_loop = false;
-        p.skip_empty = false;
-        let plain = render(&RenderSpec::new(p, Some(&lut), None, &lights).unwrap(), vol, k);
         proptest::prop_assert!(fast.iter().any(|&x| x > 0.0) || plain.iter().all(|&x| x == 0.0));
         proptest::prop_assert!(
             fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
