@@ -65,30 +65,20 @@ impl SkipGrid {
         let data = vol.data();
         let (s0, s1) = (sizes[0], sizes[1]);
         let plane = s0 * s1;
-        let mut zlo = alloc::vec![0.0f32; plane];
-        let mut zhi = alloc::vec![0.0f32; plane];
-        let mut ylo = alloc::vec![0.0f32; s0];
-        let mut yhi = alloc::vec![0.0f32; s0];
+        let mut zlo = alloc::vec![V::TOP; plane];
+        let mut zhi = alloc::vec![V::BOTTOM; plane];
+        let mut ylo = alloc::vec![V::TOP; s0];
+        let mut yhi = alloc::vec![V::BOTTOM; s0];
         let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
         for bk in 0..nb[2] {
-            zlo.fill(f32::INFINITY);
-            zhi.fill(f32::NEG_INFINITY);
+            zlo.fill(V::TOP);
+            zhi.fill(V::BOTTOM);
             for k in range(bk, 2) {
-                let src = &data[k * plane..(k + 1) * plane];
-                for ((lo, hi), v) in zlo.iter_mut().zip(zhi.iter_mut()).zip(src) {
-                    let v = v.to_f32();
-                    let (l, h) = if v.is_nan() {
-                        (f32::NEG_INFINITY, f32::INFINITY)
-                    } else {
-                        (v, v)
-                    };
-                    *lo = if l < *lo { l } else { *lo };
-                    *hi = if h > *hi { h } else { *hi };
-                }
+                V::widen_bounds(&mut zlo, &mut zhi, &data[k * plane..(k + 1) * plane]);
             }
             for bj in 0..nb[1] {
-                ylo.fill(f32::INFINITY);
-                yhi.fill(f32::NEG_INFINITY);
+                ylo.fill(V::TOP);
+                yhi.fill(V::BOTTOM);
                 for j in range(bj, 1) {
                     let (rl, rh) = (&zlo[j * s0..(j + 1) * s0], &zhi[j * s0..(j + 1) * s0]);
                     for (((lo, hi), &l), &h) in ylo.iter_mut().zip(yhi.iter_mut()).zip(rl).zip(rh) {
@@ -98,8 +88,12 @@ impl SkipGrid {
                 }
                 for bi in 0..nb[0] {
                     let r = range(bi, 0);
-                    let m = ylo[r.clone()].iter().fold(f32::INFINITY, |a, &x| a.min(x));
-                    let mx = yhi[r].iter().fold(f32::NEG_INFINITY, |a, &x| a.max(x));
+                    let m = ylo[r.clone()]
+                        .iter()
+                        .fold(f32::INFINITY, |a, &x| a.min(x.to_f32()));
+                    let mx = yhi[r]
+                        .iter()
+                        .fold(f32::NEG_INFINITY, |a, &x| a.max(x.to_f32()));
                     if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
                         continue;
                     }
@@ -217,9 +211,47 @@ pub fn chessboard_distance(nb: [usize; 3], empty: &[bool]) -> Vec<u8> {
 
 #[cfg(test)]
 mod tests {
-    use super::chessboard_distance;
+    use super::{chessboard_distance, SkipGrid};
     use alloc::vec::Vec;
     use proptest::prelude::*;
+
+    /// A NaN voxel keeps every block whose support reaches it from being empty; the
+    /// same volume without it, all in a zero-opacity range, is empty throughout; i16
+    /// bounds give what their f32 values give.
+    #[test]
+    fn nan_voxels_are_never_skipped() {
+        use crate::affine::Affine4;
+        use crate::kernel::KernelName;
+        use crate::txf::Lut;
+        use crate::volume::Volume;
+        let sizes = [20, 18, 17];
+        let n = sizes[0] * sizes[1] * sizes[2];
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        // Opacity only for values above 50.
+        let mut e = alloc::vec![[1.0f32, 1.0, 1.0, 0.0]; 100];
+        for x in &mut e[50..] {
+            x[3] = 0.5;
+        }
+        let lut = Lut::new(0.0, 100.0, e).unwrap();
+        let mut f: Vec<f32> = (0..n).map(|i| (i % 7) as f32).collect();
+        let s: Vec<i16> = f.iter().map(|&x| x as i16).collect();
+        for k in [KernelName::Tent, KernelName::Bspln3] {
+            let g = SkipGrid::new(&Volume::new(&f, sizes, itow).unwrap(), k, &lut);
+            assert_eq!(g.empty_fraction(), 1.0);
+            let g16 = SkipGrid::new(&Volume::new(&s, sizes, itow).unwrap(), k, &lut);
+            assert_eq!(g16.empty, g.empty);
+        }
+        let at = 13 + sizes[0] * (9 + sizes[1] * 4);
+        f[at] = f32::NAN;
+        let g = SkipGrid::new(
+            &Volume::new(&f, sizes, itow).unwrap(),
+            KernelName::Tent,
+            &lut,
+        );
+        // Support starts (12 or 13, 8 or 9, 3 or 4) reach the NaN voxel: blocks 1, 1, 0.
+        assert!(!g.empty_at([12, 8, 3]) && !g.empty_at([13, 9, 4]));
+        assert!(g.empty_fraction() < 1.0 && g.empty_at([0, 0, 8]));
+    }
 
     proptest! {
         /// The two-pass transform equals the brute-force Chebyshev distance to the

@@ -12,6 +12,14 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     const TYPE_NAME: &'static str;
     /// The value as f32 (i16 converts exactly).
     fn to_f32(self) -> f32;
+    /// The largest value (+∞ for f32), the start of a running minimum.
+    const TOP: Self;
+    /// The smallest value (−∞ for f32), the start of a running maximum.
+    const BOTTOM: Self;
+    /// Element by element, `lo[i] = min(lo[i], src[i])` and `hi[i] = max(hi[i],
+    /// src[i])`, except that a NaN in `src` makes the pair (−∞, +∞): running value
+    /// bounds that a NaN voxel makes unbounded.
+    fn widen_bounds(lo: &mut [Self], hi: &mut [Self], src: &[Self]);
     /// The samples as f32 without conversion, when they already are f32.
     #[inline(always)]
     fn as_f32_slice(_s: &[Self]) -> Option<&[f32]> {
@@ -55,6 +63,20 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
 
 impl Voxel for f32 {
     const TYPE_NAME: &'static str = "float";
+    const TOP: f32 = f32::INFINITY;
+    const BOTTOM: f32 = f32::NEG_INFINITY;
+    #[inline]
+    fn widen_bounds(lo: &mut [f32], hi: &mut [f32], src: &[f32]) {
+        for ((lo, hi), &v) in lo.iter_mut().zip(hi.iter_mut()).zip(src) {
+            let (l, h) = if v.is_nan() {
+                (f32::NEG_INFINITY, f32::INFINITY)
+            } else {
+                (v, v)
+            };
+            *lo = if l < *lo { l } else { *lo };
+            *hi = if h > *hi { h } else { *hi };
+        }
+    }
     #[inline(always)]
     fn to_f32(self) -> f32 {
         self
@@ -111,6 +133,16 @@ impl Voxel for f32 {
 
 impl Voxel for i16 {
     const TYPE_NAME: &'static str = "short";
+    const TOP: i16 = i16::MAX;
+    const BOTTOM: i16 = i16::MIN;
+    #[inline]
+    fn widen_bounds(lo: &mut [i16], hi: &mut [i16], src: &[i16]) {
+        // Integer min and max, which the compiler turns into 16-bit vector operations.
+        for ((lo, hi), &v) in lo.iter_mut().zip(hi.iter_mut()).zip(src) {
+            *lo = (*lo).min(v);
+            *hi = (*hi).max(v);
+        }
+    }
     #[inline(always)]
     fn to_f32(self) -> f32 {
         self as f32
