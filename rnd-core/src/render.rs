@@ -534,7 +534,8 @@ impl RenderSpec<'_> {
         // -z(k) never decreases (the step points away from the eye), so the stopping
         // condition is false … false true … true over k = 1 ..= kmax + 1.
         let (s, d) = (g.start_v[2], g.step_v[2]);
-        first_true(1, kmax + 1, |k| -(s + k as f64 * d) > cam.fcv)
+        let guess = math::ceil((-cam.fcv - s) / d);
+        first_true_near(1, kmax + 1, guess, |k| -(s + k as f64 * d) > cam.fcv)
     }
 
     /// Samples k in [lo, hi) of ray `g` (of `kend` samples) are exactly those whose
@@ -562,15 +563,22 @@ impl RenderSpec<'_> {
                     Place::Above => 1,
                 }
             };
+            // The positions where the class changes: the support start floor(x + off)
+            // + LO reaches 0 at x = tlo and passes size − S at x = thi; the samples
+            // nearest them are the estimates the searches start from.
+            let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
+            let tlo = -(K::LO as f64) - off;
+            let thi = sizes[a] as f64 - S as f64 - K::LO as f64 + 1.0 - off;
+            let near = |t: f64| math::ceil((t - s) / d);
             let (a0, a1) = if d > 0.0 {
                 (
-                    first_true(0, kend, |k| class(k) >= 0),
-                    first_true(0, kend, |k| class(k) > 0),
+                    first_true_near(0, kend, near(tlo), |k| class(k) >= 0),
+                    first_true_near(0, kend, near(thi), |k| class(k) > 0),
                 )
             } else if d < 0.0 {
                 (
-                    first_true(0, kend, |k| class(k) <= 0),
-                    first_true(0, kend, |k| class(k) < 0),
+                    first_true_near(0, kend, near(thi), |k| class(k) <= 0),
+                    first_true_near(0, kend, near(tlo), |k| class(k) < 0),
                 )
             } else if class(0) == 0 {
                 (0, kend)
@@ -874,6 +882,37 @@ fn correct_alpha_ln(a: f32, l: f64, ex: f32) -> f32 {
     }
 }
 
+/// [`first_true`] starting from `guess`, an estimate of the answer: the predicate is
+/// tried at the estimate and next to it (a close estimate settles it in two calls), and
+/// bisection covers what that leaves open, so any estimate gives the exact answer.
+fn first_true_near(lo: u32, hi: u32, guess: f64, pred: impl Fn(u32) -> bool) -> u32 {
+    if !(guess.is_finite() && lo < hi) {
+        return first_true(lo, hi, pred);
+    }
+    let g = guess.clamp(lo as f64, hi as f64) as u32;
+    if g == hi {
+        // The answer is in [lo, hi]: hi unless pred holds at hi − 1.
+        return if pred(hi - 1) {
+            first_true(lo, hi - 1, pred)
+        } else {
+            hi
+        };
+    }
+    if pred(g) {
+        // The answer is in [lo, g].
+        if g == lo || !pred(g - 1) {
+            g
+        } else {
+            first_true(lo, g - 1, pred)
+        }
+    } else if g + 1 == hi || pred(g + 1) {
+        // The answer is in [g + 1, hi] and holds at g + 1 or there is no more room.
+        g + 1
+    } else {
+        first_true(g + 2, hi, pred)
+    }
+}
+
 /// The first k in [lo, hi) where `pred` holds, for a predicate that is false then true
 /// over the range; `hi` when it never holds.
 fn first_true(mut lo: u32, mut hi: u32, pred: impl Fn(u32) -> bool) -> u32 {
@@ -948,4 +987,42 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
         }
     }
     dispatch(vol, kernel, Whole(spec))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{first_true, first_true_near};
+
+    /// Starting from any estimate (far off, on either side, at the ends, not finite) the
+    /// search finds what plain bisection finds, for every threshold of a monotone
+    /// predicate.
+    #[test]
+    fn first_true_near_is_exact_from_any_estimate() {
+        for (lo, hi) in [(0u32, 0u32), (0, 1), (0, 7), (1, 40), (3, 300)] {
+            for t in lo..=hi + 1 {
+                let pred = |k: u32| k >= t;
+                let want = first_true(lo, hi, pred);
+                let guesses = (0..=hi + 3).map(|g| g as f64 - 1.5).chain([
+                    f64::NAN,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    -1e300,
+                    1e300,
+                ]);
+                for g in guesses {
+                    assert_eq!(
+                        first_true_near(lo, hi, g, pred),
+                        want,
+                        "[{lo}, {hi}) t {t} g {g}"
+                    );
+                    let g = g.round();
+                    assert_eq!(
+                        first_true_near(lo, hi, g, pred),
+                        want,
+                        "[{lo}, {hi}) t {t} g {g}"
+                    );
+                }
+            }
+        }
+    }
 }
