@@ -10,6 +10,7 @@ use core::str::FromStr;
 use num_traits::Float;
 
 use crate::error::{Error, ErrorKind};
+use crate::math;
 
 #[inline(always)]
 fn c<T: Float>(x: f64) -> T {
@@ -77,24 +78,7 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
         let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
         let r = (y + ROUND) - ROUND;
         let f = r - if r > y { 1.0 } else { 0.0 };
-        (trunc_i64(f), x - f)
-    }
-}
-
-/// `y` truncated toward zero, for |y| < 2^63 (outside that, some wrong but defined
-/// value: callers range-check first). On x86_64 one instruction, without the saturation
-/// handling of `as`.
-#[inline(always)]
-fn trunc_i64(y: f64) -> i64 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: SSE2 is part of the x86_64 baseline; the conversion has no
-        // preconditions (out of range and NaN give i64::MIN).
-        unsafe { core::arch::x86_64::_mm_cvttsd_si64(core::arch::x86_64::_mm_set_sd(y)) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        y as i64
+        (math::trunc_i64(f), x - f)
     }
 }
 

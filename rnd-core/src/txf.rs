@@ -320,12 +320,14 @@ impl Lut {
         let len = self.rgba.len();
         let v = v.clamp(self.vmin, self.vmax);
         let f = (v - self.vmin) / (self.vmax - self.vmin) * len as f64;
-        let i = math::floor(f);
-        if i >= 0.0 {
-            (i as usize).min(len - 1)
+        // f is in [0, len] (or NaN, for a NaN value): below 1 (and NaN) the entry is
+        // 0, above it truncation is the floor.
+        let i = if f >= 1.0 {
+            math::trunc_i64(f) as usize
         } else {
             0
-        }
+        };
+        i.min(len - 1)
     }
 }
 
@@ -400,6 +402,46 @@ impl Levoy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The entry index is floor((v − vmin)/(vmax − vmin)·len) clamped to [0, len − 1]
+    /// (SPEC §8.4), NaN giving entry 0: checked against that formula at and next to
+    /// every entry boundary, outside the domain, and for odd domains.
+    #[test]
+    fn lut_index_is_the_clamped_floor() {
+        for (lo, hi, len) in [
+            (0.0, 1.0, 512usize),
+            (-5.364, 33.43, 4),
+            (0.0, 2000.0, 1024),
+            (-1e-3, 7.0, 3),
+        ] {
+            let lut = Lut::new(lo, hi, alloc::vec![[0.0; 4]; len]).unwrap();
+            let want = |v: f64| {
+                let f = (v.clamp(lo, hi) - lo) / (hi - lo) * len as f64;
+                let i = math::floor(f);
+                if i >= 0.0 {
+                    (i as usize).min(len - 1)
+                } else {
+                    0
+                }
+            };
+            let mut vs = alloc::vec![
+                f64::NAN,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                lo - 1.0,
+                hi + 1.0,
+                lo,
+                hi
+            ];
+            for e in 0..=len {
+                let b = lo + (hi - lo) * e as f64 / len as f64;
+                vs.extend([b, b.next_up(), b.next_down(), (b as f32) as f64]);
+            }
+            for v in vs {
+                assert_eq!(lut.index(v), want(v), "v {v} in [{lo}, {hi}] of {len}");
+            }
+        }
+    }
 
     #[test]
     fn hsv_checks() {
