@@ -157,6 +157,25 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         out[0]
     }
 
+    /// The sums of the first `m` of N samples: a whole batch through [`Convo::sums_n`],
+    /// a partial one sample by sample (the same bits either way).
+    #[inline(always)]
+    pub(crate) fn sums_first<const G: bool, const N: usize>(
+        &mut self,
+        n: &[[i64; 3]; N],
+        alpha: &[[f64; 3]; N],
+        m: usize,
+        out: &mut [[f32; 4]; N],
+    ) {
+        if m == N {
+            self.sums_n::<G, N>(n, alpha, out);
+        } else {
+            for i in 0..m {
+                out[i] = self.sums::<G>(n[i], alpha[i]);
+            }
+        }
+    }
+
     /// [`Convo::sums_n`] for the N consecutive samples k, k + 1, … of the index-space
     /// ray `start + k step`, all of which the caller knows satisfy the inside rule
     /// (positions and offsets as [`locate`] computes them).

@@ -786,13 +786,7 @@ impl RenderSpec<'_> {
                 // Values first; the gradient (and lighting) only for samples that are
                 // not transparent. The value is the same bits with or without the
                 // gradient, and a transparent sample only counts.
-                if m == LANES {
-                    convo.sums_n::<false, LANES>(&nb, &al, &mut res);
-                } else {
-                    for i in 0..m {
-                        res[i] = convo.sums::<false>(nb[i], al[i]);
-                    }
-                }
+                convo.sums_first::<false, LANES>(&nb, &al, m, &mut res);
                 let mut finished = false;
                 for i in 0..m {
                     if self.lut_alpha(lut, lut.index(res[i][0] as f64), &g) == 0.0 {
@@ -807,13 +801,7 @@ impl RenderSpec<'_> {
                 }
                 continue;
             }
-            if m == LANES {
-                convo.sums_n::<G, LANES>(&nb, &al, &mut res);
-            } else {
-                for i in 0..m {
-                    res[i] = convo.sums::<G>(nb[i], al[i]);
-                }
-            }
+            convo.sums_first::<G, LANES>(&nb, &al, m, &mut res);
             if (0..m).any(|i| take(&mut acc, ks[i], res[i])) {
                 break;
             }
