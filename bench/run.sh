@@ -96,8 +96,11 @@ echo "this machine gives two busy cores at that moment, two independent 1-thread
 echo "once (two processes, no shared work). 'Machine' is 2 × (1-thread time) / (the slower"
 echo "of the two concurrent 1-thread renders): the speed-up of perfectly independent work."
 echo
-echo "| volume | query | 1 thread s | 2 threads s | speed-up | two 1-thread renders at once s | machine |"
-echo "|---|---|---|---|---|---|---|"
+echo "Best-of times give the first columns; the last two are the medians, over the rounds, of"
+echo "each round's own ratios (1- and 2-thread runs a second apart), less swayed by spells."
+echo
+echo "| volume | query | 1 thread s | 2 threads s | speed-up | two 1-thread renders at once s | machine | median speed-up | median machine |"
+echo "|---|---|---|---|---|---|---|---|---|"
 render_time() { # render seconds reported by rendr go under RND_VERBOSE=1
   RND_VERBOSE=1 "$@" 2>&1 >/dev/null | awk '/seconds to render/ { print $3 }'
 }
@@ -111,16 +114,22 @@ for v in ct syn; do
     # 1- and 2-thread runs and the control alternate (so slow drifts of this shared
     # machine hit all three); best of ROUNDS2 each.
     b1=1e9; b2=1e9; bp=1e9
+    : >rounds.txt
     for _ in $(seq 1 "$ROUNDS2"); do
-      b1=$(min "$b1" "$(render_time "$R" "${go[@]}" -nt 1 -o r.nrrd)")
-      b2=$(min "$b2" "$(render_time "$R" "${go[@]}" -nt 2 -o r.nrrd)")
+      t1=$(render_time "$R" "${go[@]}" -nt 1 -o r.nrrd)
+      t2=$(render_time "$R" "${go[@]}" -nt 2 -o r.nrrd)
       render_time "$R" "${go[@]}" -nt 1 -o ra.nrrd >pa.txt &
       render_time "$R" "${go[@]}" -nt 1 -o rb.nrrd >pb.txt
       wait
-      bp=$(min "$bp" "$(cat pa.txt pb.txt | sort -g | tail -1)")
+      tp=$(cat pa.txt pb.txt | sort -g | tail -1)
+      b1=$(min "$b1" "$t1"); b2=$(min "$b2" "$t2"); bp=$(min "$bp" "$tp")
+      echo "$t1 $t2 $tp" >>rounds.txt
     done
-    awk -v v="$v" -v q="$q" -v a="$b1" -v b="$b2" -v p="$bp" 'BEGIN {
-      printf "| %s | %s/max | %.3f | %.3f | %.2fx | %.3f | %.2fx |\n", v, q, a, b, a / b, p, 2 * a / p }'
+    med() { sort -g | awk '{ x[NR] = $1 } END { print (NR % 2 ? x[(NR + 1) / 2] : (x[NR / 2] + x[NR / 2 + 1]) / 2) }'; }
+    ms=$(awk '{ print $1 / $2 }' rounds.txt | med)
+    mm=$(awk '{ print 2 * $1 / $3 }' rounds.txt | med)
+    awk -v v="$v" -v q="$q" -v a="$b1" -v b="$b2" -v p="$bp" -v ms="$ms" -v mm="$mm" 'BEGIN {
+      printf "| %s | %s/max | %.3f | %.3f | %.2fx | %.3f | %.2fx | %.2fx | %.2fx |\n", v, q, a, b, a / b, p, 2 * a / p, ms, mm }'
   done
 done
 
