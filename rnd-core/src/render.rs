@@ -768,18 +768,25 @@ impl RenderSpec<'_> {
             }
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
-                if let Some(sk) = skip.filter(|sk| sk.empty_at(n)) {
-                    // Every sample up to the last one in the empty box around this
-                    // block is empty too.
-                    let bx = sk.empty_box(n);
-                    let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &inv, k, k1);
-                    acc.add_transparent(last - k + 1);
-                    k = last + 1;
-                    continue;
-                } else {
-                    (nb[m], al[m], ks[m]) = (n, a, k);
-                    m += 1;
+                if let Some(sk) = skip {
+                    if sk.coarse_empty_at(n) {
+                        // Every sample up to the last one in the empty box around this
+                        // block is empty too.
+                        let bx = sk.empty_box(n);
+                        let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &inv, k, k1);
+                        acc.add_transparent(last - k + 1);
+                        k = last + 1;
+                        continue;
+                    }
+                    if sk.empty_at(n) {
+                        // Transparent by the fine grid: counted, not convolved.
+                        acc.add_transparent(1);
+                        k += 1;
+                        continue;
+                    }
                 }
+                (nb[m], al[m], ks[m]) = (n, a, k);
+                m += 1;
                 k += 1;
             }
             if let (true, Some(lut)) = (value_first, self.lut) {

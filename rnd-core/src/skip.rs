@@ -1,7 +1,9 @@
-//! Empty-space skipping for `over`: a coarse grid of blocks that records where the
-//! LUT opacity is zero for every value the convolution can reach, so the ray can skip
-//! the convolution there. Exact: a skipped sample would have had opacity 0, which adds
+//! Empty-space skipping for `over`: grids of blocks that record where the LUT opacity
+//! is zero for every value the convolution can reach, so the ray can skip the
+//! convolution there. Exact: a skipped sample would have had opacity 0, which adds
 //! nothing under `over` (its "inside" status, which decides outsideValue, is kept).
+//! Fine blocks ([`F`] support starts per axis) decide single samples; coarse blocks
+//! ([`B`], every fine block inside empty) carry the distance map that long jumps use.
 
 use alloc::vec::Vec;
 
@@ -10,13 +12,20 @@ use crate::txf::Lut;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
-/// Block edge length in voxels.
+/// Coarse block edge length in support starts.
 const B: usize = 8;
+/// Fine block edge length in support starts (divides [`B`]).
+const F: usize = 4;
+const _: () = assert!(B.is_multiple_of(F));
 
 /// Which blocks of support-base indices give zero opacity everywhere, and how far each
 /// empty block is from the nearest block that is not.
 #[derive(Debug, Clone)]
 pub struct SkipGrid {
+    /// Fine blocks per axis and which of them are empty.
+    nf: [usize; 3],
+    fine: Vec<bool>,
+    /// Coarse blocks per axis and which of them are empty (every fine block in it is).
     nb: [usize; 3],
     empty: Vec<bool>,
     /// Chebyshev distance, in blocks, from each block to the nearest non-empty one
@@ -43,6 +52,7 @@ impl SkipGrid {
     pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &Lut) -> SkipGrid {
         let sizes = vol.sizes();
         let s = kernel.support();
+        let nf: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(F));
         let nb: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(B));
         // Reachable values: v = Σ w_i v_i with Σ w_i = 1 and Σ |w_i| ≤ C (3-D product),
         // so v ∈ [m − W(M − m), M + W(M − m)] with W = (C − 1)/2.
@@ -56,12 +66,34 @@ impl SkipGrid {
             let last = *nz.last().unwrap_or(&0);
             nz.push(last + u32::from(x[3] != 0.0));
         }
-        // Min and max over each block's support range (the block's bases plus S − 1
-        // more voxels per axis), separably and one slab of blocks at a time: along z
+        // The LUT test of one support range: true when every value the convolution can
+        // reach from voxels in [m, mx] has zero opacity. NaN bounds (a NaN voxel) or
+        // infinite ones are never empty.
+        let zero_opacity = |m: f32, mx: f32| -> bool {
+            if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
+                return false;
+            }
+            let (m, mx) = (m as f64, mx as f64);
+            let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
+            let (lo, hi) = if kernel == KernelName::Zero {
+                // Every weight is 0: the value is 0 whatever the voxels are.
+                (0.0, 0.0)
+            } else {
+                (m - wneg * (mx - m) - margin, mx + wneg * (mx - m) + margin)
+            };
+            let (i0, i1) = (lut.index(lo), lut.index(hi));
+            nz[i1 + 1] == nz[i0]
+        };
+        // Min and max over each fine block's support range (the block's bases plus
+        // S − 1 more voxels per axis), separably and one fine slab at a time: along z
         // for every voxel of the slab's planes (element by element over whole planes,
         // which the compiler vectorizes), then along y for every row, then along x. A
-        // NaN voxel makes its range (−∞, ∞), so its blocks are never empty.
-        let range = |b: usize, a: usize| (b * B)..((b + 1) * B + s - 1).min(sizes[a]);
+        // NaN voxel makes its range (−∞, ∞), so its blocks are never empty. A coarse
+        // block's range is the union of its fine blocks' ranges, so the LUT is tested
+        // once for a coarse block and only when that fails for each of its fine blocks
+        // (a zero-opacity range has zero-opacity parts).
+        const R: usize = B / F;
+        let range = |b: usize, a: usize| (b * F)..((b + 1) * F + s - 1).min(sizes[a]);
         let data = vol.data();
         let (s0, s1) = (sizes[0], sizes[1]);
         let plane = s0 * s1;
@@ -69,60 +101,105 @@ impl SkipGrid {
         let mut zhi = alloc::vec![V::BOTTOM; plane];
         let mut ylo = alloc::vec![V::TOP; s0];
         let mut yhi = alloc::vec![V::BOTTOM; s0];
+        // Fine ranges of the R fine slabs of one coarse slab.
+        let slab = nf[0] * nf[1];
+        let mut fmin = alloc::vec![f32::INFINITY; R * slab];
+        let mut fmax = alloc::vec![f32::NEG_INFINITY; R * slab];
+        let mut fine = alloc::vec![false; nf[0] * nf[1] * nf[2]];
         let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
-        for bk in 0..nb[2] {
-            zlo.fill(V::TOP);
-            zhi.fill(V::BOTTOM);
-            for k in range(bk, 2) {
-                V::widen_bounds(&mut zlo, &mut zhi, &data[k * plane..(k + 1) * plane]);
-            }
-            for bj in 0..nb[1] {
-                ylo.fill(V::TOP);
-                yhi.fill(V::BOTTOM);
-                for j in range(bj, 1) {
-                    let (rl, rh) = (&zlo[j * s0..(j + 1) * s0], &zhi[j * s0..(j + 1) * s0]);
-                    for (((lo, hi), &l), &h) in ylo.iter_mut().zip(yhi.iter_mut()).zip(rl).zip(rh) {
-                        *lo = if l < *lo { l } else { *lo };
-                        *hi = if h > *hi { h } else { *hi };
+        for ck in 0..nb[2] {
+            let fks = (ck * R)..((ck + 1) * R).min(nf[2]);
+            fmin.fill(f32::INFINITY);
+            fmax.fill(f32::NEG_INFINITY);
+            for fk in fks.clone() {
+                zlo.fill(V::TOP);
+                zhi.fill(V::BOTTOM);
+                for k in range(fk, 2) {
+                    V::widen_bounds(&mut zlo, &mut zhi, &data[k * plane..(k + 1) * plane]);
+                }
+                for fj in 0..nf[1] {
+                    ylo.fill(V::TOP);
+                    yhi.fill(V::BOTTOM);
+                    for j in range(fj, 1) {
+                        let rows = j * s0..(j + 1) * s0;
+                        V::merge_bounds(&mut ylo, &mut yhi, &zlo[rows.clone()], &zhi[rows]);
+                    }
+                    let at = (fk - ck * R) * slab + nf[0] * fj;
+                    for fi in 0..nf[0] {
+                        let r = range(fi, 0);
+                        (fmin[at + fi], fmax[at + fi]) = V::bounds_f32(&ylo[r.clone()], &yhi[r]);
                     }
                 }
-                for bi in 0..nb[0] {
-                    let r = range(bi, 0);
-                    let m = ylo[r.clone()]
-                        .iter()
-                        .fold(f32::INFINITY, |a, &x| a.min(x.to_f32()));
-                    let mx = yhi[r]
-                        .iter()
-                        .fold(f32::NEG_INFINITY, |a, &x| a.max(x.to_f32()));
-                    if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
-                        continue;
+            }
+            for cj in 0..nb[1] {
+                for ci in 0..nb[0] {
+                    // The fine blocks of this coarse block (local and global indices).
+                    let mut cells = [(0usize, 0usize); R * R * R];
+                    let mut n = 0;
+                    for fk in fks.clone() {
+                        for fj in (cj * R)..((cj + 1) * R).min(nf[1]) {
+                            for fi in (ci * R)..((ci + 1) * R).min(nf[0]) {
+                                cells[n] = (
+                                    (fk - ck * R) * slab + nf[0] * fj + fi,
+                                    fi + nf[0] * (fj + nf[1] * fk),
+                                );
+                                n += 1;
+                            }
+                        }
                     }
-                    let (m, mx) = (m as f64, mx as f64);
-                    let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
-                    let (lo, hi) = if kernel == KernelName::Zero {
-                        // Every weight is 0: the value is 0 whatever the voxels are.
-                        (0.0, 0.0)
+                    let cells = &cells[..n];
+                    let (m, mx) = cells
+                        .iter()
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &(l, _)| {
+                            (a.min(fmin[l]), b.max(fmax[l]))
+                        });
+                    let all = if zero_opacity(m, mx) {
+                        for &(_, g) in cells {
+                            fine[g] = true;
+                        }
+                        true
                     } else {
-                        (m - wneg * (mx - m) - margin, mx + wneg * (mx - m) + margin)
+                        let mut all = true;
+                        for &(l, g) in cells {
+                            let e = zero_opacity(fmin[l], fmax[l]);
+                            fine[g] = e;
+                            all &= e;
+                        }
+                        all
                     };
-                    let (i0, i1) = (lut.index(lo), lut.index(hi));
-                    empty[bi + nb[0] * (bj + nb[1] * bk)] = nz[i1 + 1] == nz[i0];
+                    // A coarse block is empty when every fine block in it is.
+                    empty[ci + nb[0] * (cj + nb[1] * ck)] = all;
                 }
             }
         }
         let dist = chessboard_distance(nb, &empty);
-        SkipGrid { nb, empty, dist }
+        SkipGrid {
+            nf,
+            fine,
+            nb,
+            empty,
+            dist,
+        }
     }
 
-    /// True when every convolution whose support starts at index `lo` (all three axes
-    /// inside the volume) has zero LUT opacity.
+    /// True when the convolution whose support starts at index `lo` (all three axes
+    /// inside the volume) has zero LUT opacity, as far as the fine grid tells.
     #[inline(always)]
     pub fn empty_at(&self, lo: [i64; 3]) -> bool {
+        let b = [lo[0] as usize / F, lo[1] as usize / F, lo[2] as usize / F];
+        self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
+    }
+
+    /// True when every convolution whose support starts in the coarse block of `lo`
+    /// (all three axes inside the volume) has zero LUT opacity; then
+    /// [`SkipGrid::empty_box`] applies.
+    #[inline(always)]
+    pub fn coarse_empty_at(&self, lo: [i64; 3]) -> bool {
         let b = [lo[0] as usize / B, lo[1] as usize / B, lo[2] as usize / B];
         self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
     }
 
-    /// For support start `lo` in an empty block: the box of support starts, `[first,
+    /// For support start `lo` in an empty coarse block: the box of support starts, `[first,
     /// last]` per axis, whose blocks are all empty (`lo`'s block widened on every side by
     /// its distance to the nearest non-empty block, less one). Parts of the box beyond
     /// the volume hold no support start of an inside sample.
@@ -134,15 +211,15 @@ impl SkipGrid {
         b.map(|x| [(x - r) * B as i64, (x + r + 1) * B as i64 - 1])
     }
 
-    /// The Chebyshev distance map (for tests).
+    /// The coarse blocks and their Chebyshev distance map (for tests).
     #[doc(hidden)]
     pub fn distances(&self) -> (&[usize; 3], &[bool], &[u8]) {
         (&self.nb, &self.empty, &self.dist)
     }
 
-    /// Fraction of blocks marked empty.
+    /// Fraction of fine blocks marked empty.
     pub fn empty_fraction(&self) -> f64 {
-        self.empty.iter().filter(|&&e| e).count() as f64 / self.empty.len().max(1) as f64
+        self.fine.iter().filter(|&&e| e).count() as f64 / self.fine.len().max(1) as f64
     }
 }
 
@@ -214,6 +291,7 @@ mod tests {
     use super::{chessboard_distance, SkipGrid};
     use alloc::vec::Vec;
     use proptest::prelude::*;
+    use proptest::test_runner::TestCaseError;
 
     /// A NaN voxel keeps every block whose support reaches it from being empty; the
     /// same volume without it, all in a zero-opacity range, is empty throughout; i16
@@ -239,7 +317,7 @@ mod tests {
             let g = SkipGrid::new(&Volume::new(&f, sizes, itow).unwrap(), k, &lut);
             assert_eq!(g.empty_fraction(), 1.0);
             let g16 = SkipGrid::new(&Volume::new(&s, sizes, itow).unwrap(), k, &lut);
-            assert_eq!(g16.empty, g.empty);
+            assert_eq!((&g16.fine, &g16.empty), (&g.fine, &g.empty));
         }
         let at = 13 + sizes[0] * (9 + sizes[1] * 4);
         f[at] = f32::NAN;
@@ -250,10 +328,90 @@ mod tests {
         );
         // Support starts (12 or 13, 8 or 9, 3 or 4) reach the NaN voxel: blocks 1, 1, 0.
         assert!(!g.empty_at([12, 8, 3]) && !g.empty_at([13, 9, 4]));
-        assert!(g.empty_fraction() < 1.0 && g.empty_at([0, 0, 8]));
+        assert!(g.empty_fraction() < 1.0 && g.empty_at([0, 0, 8]) && g.coarse_empty_at([0, 0, 8]));
+        assert!(!g.coarse_empty_at([8, 8, 0]));
+    }
+
+    /// Checks `g` built for kernel K on `vol`: each coarse block is empty exactly when
+    /// all its fine blocks are, and every convolution at `pts` (fractions of the
+    /// volume) whose support starts in an empty fine block has zero LUT opacity.
+    fn check_grid<K: crate::kernel::Kernel<S>, const S: usize>(
+        g: &SkipGrid,
+        vol: crate::volume::Volume<'_, f32>,
+        lut: &crate::txf::Lut,
+        pts: &[[f64; 3]],
+    ) -> Result<(), TestCaseError> {
+        use super::{B, F};
+        let (nf, nb) = (g.nf, g.nb);
+        for bk in 0..nb[2] {
+            for bj in 0..nb[1] {
+                for bi in 0..nb[0] {
+                    let mut all = true;
+                    for fk in (bk * B / F..(bk + 1) * B / F).filter(|&x| x < nf[2]) {
+                        for fj in (bj * B / F..(bj + 1) * B / F).filter(|&x| x < nf[1]) {
+                            for fi in (bi * B / F..(bi + 1) * B / F).filter(|&x| x < nf[0]) {
+                                all &= g.fine[fi + nf[0] * (fj + nf[1] * fk)];
+                            }
+                        }
+                    }
+                    prop_assert_eq!(g.empty[bi + nb[0] * (bj + nb[1] * bk)], all);
+                }
+            }
+        }
+        let sizes = vol.sizes();
+        let mut c = crate::convo::Convo::<f32, K, S>::new(vol);
+        for p in pts {
+            let x = core::array::from_fn(|a| p[a] * (sizes[a] as f64 - 1.0));
+            let (Some(lo), cs) = (c.support_start(x), c.eval_index(x, false)) else {
+                continue;
+            };
+            if cs.inside && g.empty_at(lo) {
+                prop_assert_eq!(
+                    lut.entries()[lut.index(cs.value as f64)][3],
+                    0.0,
+                    "at {:?}",
+                    x
+                );
+            }
+            if cs.inside && g.coarse_empty_at(lo) {
+                prop_assert!(g.empty_at(lo));
+            }
+        }
+        Ok(())
     }
 
     proptest! {
+        /// Fine and coarse blocks agree, and an empty fine block really is transparent,
+        /// for tent and bspln3 on small volumes of a few levels (in patches) with an
+        /// opacity step.
+        #[test]
+        fn fine_blocks_are_transparent(
+            sizes in prop::array::uniform3(3usize..20),
+            vals in prop::collection::vec(prop::sample::select(&[0.0f32, 0.0, 0.0, 1.0, 2.0, 3.0][..]), 343),
+            step in 1usize..16,
+            pts in prop::collection::vec(prop::array::uniform3(0.0f64..1.0), 200),
+        ) {
+            use crate::affine::Affine4;
+            use crate::kernel::{Bspln3, KernelName, Tent};
+            use crate::txf::Lut;
+            use crate::volume::Volume;
+            let n = sizes[0] * sizes[1] * sizes[2];
+            let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+            // 16 entries over [0, 4]: transparent below entry `step`.
+            let e: Vec<[f32; 4]> = (0..16).map(|i| [1.0, 1.0, 1.0, if i < step { 0.0 } else { 0.5 }]).collect();
+            let lut = Lut::new(0.0, 4.0, e).unwrap();
+            // Patches of 3 × 3 × 3 equal voxels, so values reach the levels exactly.
+            let data: Vec<f32> = (0..n)
+                .map(|i| {
+                    let (x, y, z) = (i % sizes[0], (i / sizes[0]) % sizes[1], i / (sizes[0] * sizes[1]));
+                    vals[x / 3 + 7 * (y / 3 + 7 * (z / 3))]
+                })
+                .collect();
+            let vol = Volume::new(&data, sizes, itow).unwrap();
+            check_grid::<Tent, 2>(&SkipGrid::new(&vol, KernelName::Tent, &lut), vol, &lut, &pts)?;
+            check_grid::<Bspln3, 4>(&SkipGrid::new(&vol, KernelName::Bspln3, &lut), vol, &lut, &pts)?;
+        }
+
         /// The two-pass transform equals the brute-force Chebyshev distance to the
         /// nearest non-empty cell (255 when there is none or it is farther).
         #[test]
