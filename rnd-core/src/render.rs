@@ -14,7 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
-use crate::skip::SkipGrid;
+use crate::skip::{SkipGrid, SkipPlan};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -228,10 +228,24 @@ impl<'a> RenderSpec<'a> {
     /// The empty-space-skipping grid for `vol`, when it applies (an `over` render of a
     /// colour probe with `params.skip_empty`).
     pub fn skip_grid<V: Voxel>(&self, vol: &Volume<'_, V>, kernel: KernelName) -> Option<SkipGrid> {
+        self.skip_plan(vol, kernel).map(|plan| {
+            let (mut fine, mut empty) = plan.outputs();
+            plan.build_slabs(vol, 0..plan.slabs(), &mut fine, &mut empty);
+            plan.finish(fine, empty)
+        })
+    }
+
+    /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
+    /// several threads; the same grid).
+    pub fn skip_plan<V: Voxel>(
+        &self,
+        vol: &Volume<'_, V>,
+        kernel: KernelName,
+    ) -> Option<SkipPlan<'a>> {
         let p = &self.params;
         match self.lut {
             Some(lut) if p.skip_empty && p.blend == Blend::Over && p.probe.is_colour() => {
-                Some(SkipGrid::new(vol, kernel, lut))
+                Some(SkipPlan::new(vol, kernel, lut))
             }
             _ => None,
         }

@@ -20,7 +20,7 @@ const _: () = assert!(B.is_multiple_of(F));
 
 /// Which blocks of support-base indices give zero opacity everywhere, and how far each
 /// empty block is from the nearest block that is not.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SkipGrid {
     /// Fine blocks per axis and which of them are empty.
     nf: [usize; 3],
@@ -47,11 +47,29 @@ fn abs_weight_sum(k: KernelName) -> f64 {
     best * 1.001
 }
 
-impl SkipGrid {
-    /// Builds the grid for `vol` reconstructed with `kernel` and opacities from `lut`.
-    pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &Lut) -> SkipGrid {
+/// What building a [`SkipGrid`] needs, split so that slabs of coarse blocks can be
+/// built independently (e.g. on several threads): [`SkipPlan::outputs`] gives the
+/// grids, [`SkipPlan::split`] cuts them into parts of whole coarse slabs,
+/// [`SkipPlan::build_slabs`] fills one part, and [`SkipPlan::finish`] adds the distance
+/// map. [`SkipGrid::new`] does all of it on one thread; the result is the same however
+/// the slabs are shared out.
+#[derive(Debug, Clone)]
+pub struct SkipPlan<'l> {
+    kernel: KernelName,
+    lut: &'l Lut,
+    sizes: [usize; 3],
+    nf: [usize; 3],
+    nb: [usize; 3],
+    /// Prefix counts of non-zero-opacity LUT entries.
+    nz: Vec<u32>,
+    /// Widening of a voxel range by negative kernel lobes (see [`SkipPlan::new`]).
+    wneg: f64,
+}
+
+impl<'l> SkipPlan<'l> {
+    /// The plan for `vol` reconstructed with `kernel` and opacities from `lut`.
+    pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &'l Lut) -> Self {
         let sizes = vol.sizes();
-        let s = kernel.support();
         let nf: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(F));
         let nb: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(B));
         // Reachable values: v = Σ w_i v_i with Σ w_i = 1 and Σ |w_i| ≤ C (3-D product),
@@ -66,6 +84,76 @@ impl SkipGrid {
             let last = *nz.last().unwrap_or(&0);
             nz.push(last + u32::from(x[3] != 0.0));
         }
+        SkipPlan {
+            kernel,
+            lut,
+            sizes,
+            nf,
+            nb,
+            nz,
+            wneg,
+        }
+    }
+
+    /// Number of coarse slabs (along the slowest axis), the units of work.
+    pub fn slabs(&self) -> usize {
+        self.nb[2]
+    }
+
+    /// The fine and coarse grids to fill, all false.
+    pub fn outputs(&self) -> (Vec<bool>, Vec<bool>) {
+        let (nf, nb) = (self.nf, self.nb);
+        (
+            alloc::vec![false; nf[0] * nf[1] * nf[2]],
+            alloc::vec![false; nb[0] * nb[1] * nb[2]],
+        )
+    }
+
+    /// The parts of `fine` and `empty` (from [`SkipPlan::outputs`]) that hold coarse
+    /// slabs `slabs.start` up to `slabs.end`, for [`SkipPlan::build_slabs`]; `slabs`
+    /// must be consecutive ranges from 0 covering all [`SkipPlan::slabs`], in order.
+    ///
+    /// # Panics
+    /// When the ranges ask for more slabs than the grids hold.
+    pub fn split<'o>(
+        &self,
+        mut fine: &'o mut [bool],
+        mut empty: &'o mut [bool],
+        slabs: &[core::ops::Range<usize>],
+    ) -> Vec<(&'o mut [bool], &'o mut [bool])> {
+        const R: usize = B / F;
+        let (nf, nb) = (self.nf, self.nb);
+        let mut parts = Vec::with_capacity(slabs.len());
+        for r in slabs {
+            let nfine = ((r.end * R).min(nf[2]) - (r.start * R).min(nf[2])) * nf[0] * nf[1];
+            let (f, rest) = core::mem::take(&mut fine).split_at_mut(nfine);
+            fine = rest;
+            let (e, rest) = core::mem::take(&mut empty).split_at_mut(r.len() * nb[0] * nb[1]);
+            empty = rest;
+            parts.push((f, e));
+        }
+        parts
+    }
+
+    /// Fills coarse slabs `slabs` of the grids: `fine` and `empty` are exactly those
+    /// slabs' parts (see [`SkipPlan::split`]).
+    pub fn build_slabs<V: Voxel>(
+        &self,
+        vol: &Volume<'_, V>,
+        slabs: core::ops::Range<usize>,
+        fine: &mut [bool],
+        empty: &mut [bool],
+    ) {
+        let (sizes, nf, nb, nz, wneg, kernel) = (
+            self.sizes,
+            self.nf,
+            self.nb,
+            &self.nz,
+            self.wneg,
+            self.kernel,
+        );
+        let s = kernel.support();
+        let lut = self.lut;
         // The LUT test of one support range: true when every value the convolution can
         // reach from voxels in [m, mx] has zero opacity. NaN bounds (a NaN voxel) or
         // infinite ones are never empty.
@@ -105,9 +193,9 @@ impl SkipGrid {
         let slab = nf[0] * nf[1];
         let mut fmin = alloc::vec![f32::INFINITY; R * slab];
         let mut fmax = alloc::vec![f32::NEG_INFINITY; R * slab];
-        let mut fine = alloc::vec![false; nf[0] * nf[1] * nf[2]];
-        let mut empty = alloc::vec![false; nb[0] * nb[1] * nb[2]];
-        for ck in 0..nb[2] {
+        // Offsets of this part in the whole grids.
+        let (f0, e0) = (slabs.start * R * nf[0] * nf[1], slabs.start * nb[0] * nb[1]);
+        for ck in slabs.clone() {
             let fks = (ck * R)..((ck + 1) * R).min(nf[2]);
             fmin.fill(f32::INFINITY);
             fmax.fill(f32::NEG_INFINITY);
@@ -141,7 +229,7 @@ impl SkipGrid {
                             for fi in (ci * R)..((ci + 1) * R).min(nf[0]) {
                                 cells[n] = (
                                     (fk - ck * R) * slab + nf[0] * fj + fi,
-                                    fi + nf[0] * (fj + nf[1] * fk),
+                                    fi + nf[0] * (fj + nf[1] * fk) - f0,
                                 );
                                 n += 1;
                             }
@@ -168,18 +256,33 @@ impl SkipGrid {
                         all
                     };
                     // A coarse block is empty when every fine block in it is.
-                    empty[ci + nb[0] * (cj + nb[1] * ck)] = all;
+                    empty[ci + nb[0] * (cj + nb[1] * ck) - e0] = all;
                 }
             }
         }
-        let dist = chessboard_distance(nb, &empty);
+    }
+
+    /// The grid from the filled `fine` and `empty` grids.
+    pub fn finish(self, fine: Vec<bool>, empty: Vec<bool>) -> SkipGrid {
+        let dist = chessboard_distance(self.nb, &empty);
         SkipGrid {
-            nf,
+            nf: self.nf,
             fine,
-            nb,
+            nb: self.nb,
             empty,
             dist,
         }
+    }
+}
+
+impl SkipGrid {
+    /// Builds the grid for `vol` reconstructed with `kernel` and opacities from `lut`
+    /// (on this thread; see [`SkipPlan`] for building it in parts).
+    pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &Lut) -> SkipGrid {
+        let plan = SkipPlan::new(vol, kernel, lut);
+        let (mut fine, mut empty) = plan.outputs();
+        plan.build_slabs(vol, 0..plan.slabs(), &mut fine, &mut empty);
+        plan.finish(fine, empty)
     }
 
     /// True when the convolution whose support starts at index `lo` (all three axes

@@ -10,6 +10,7 @@ use std::time::Instant;
 use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
+use rnd_core::skip::{SkipGrid, SkipPlan};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
 
@@ -61,7 +62,9 @@ pub fn render(
             };
             // Bands of rows are handed out from one queue; with one thread the calling
             // thread drains it alone.
-            let skip = spec.skip_grid(&vol, K::NAME);
+            let skip = spec
+                .skip_plan(&vol, K::NAME)
+                .map(|plan| build_skip_grid(plan, &vol, self.threads));
             let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
             let work = || {
                 let mut convo = Convo::<V, K, S>::new(vol);
@@ -103,4 +106,82 @@ pub fn render(
             progress,
         },
     )
+}
+
+/// Builds the skip grid of `plan` with `threads` workers, each taking a run of whole
+/// coarse slabs (the same grid as one thread builds).
+pub fn build_skip_grid<V: Voxel>(
+    plan: SkipPlan<'_>,
+    vol: &Volume<'_, V>,
+    threads: usize,
+) -> SkipGrid {
+    let (mut fine, mut empty) = plan.outputs();
+    let n = plan.slabs();
+    let t = threads.clamp(1, n.max(1));
+    if t == 1 {
+        plan.build_slabs(vol, 0..n, &mut fine, &mut empty);
+    } else {
+        let ranges: Vec<std::ops::Range<usize>> =
+            (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
+        let parts = plan.split(&mut fine, &mut empty, &ranges);
+        let plan = &plan;
+        std::thread::scope(|s| {
+            for (r, (f, e)) in ranges.iter().cloned().zip(parts) {
+                s.spawn(move || plan.build_slabs(vol, r, f, e));
+            }
+        });
+    }
+    plan.finish(fine, empty)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::build_skip_grid;
+    use rnd_core::affine::Affine4;
+    use rnd_core::kernel::KernelName;
+    use rnd_core::skip::{SkipGrid, SkipPlan};
+    use rnd_core::txf::Lut;
+    use rnd_core::volume::Volume;
+
+    /// Any number of workers builds the grid one thread builds, for sizes that are not
+    /// multiples of the block sizes and slab counts that do not divide evenly.
+    #[test]
+    fn threaded_skip_grid_equals_one_thread() {
+        let sizes = [37, 29, 45];
+        let n = sizes[0] * sizes[1] * sizes[2];
+        // Two blobs in an empty field, and some noise, so blocks of every kind occur.
+        let data: Vec<f32> = (0..n)
+            .map(|i| {
+                let (x, y, z) = (i % 37, (i / 37) % 29, i / (37 * 29));
+                let d1 =
+                    (x as f32 - 9.0).powi(2) + (y as f32 - 8.0).powi(2) + (z as f32 - 10.0).powi(2);
+                let d2 = (x as f32 - 28.0).powi(2)
+                    + (y as f32 - 20.0).powi(2)
+                    + (z as f32 - 36.0).powi(2);
+                let noise = if (i * 7919) % 2003 == 0 {
+                    0.5
+                } else if i % 13 == 0 {
+                    0.2
+                } else {
+                    0.0
+                };
+                (1.0 - d1 / 40.0).max(0.0) + (1.0 - d2 / 60.0).max(0.0) + noise
+            })
+            .collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        let e: Vec<[f32; 4]> = (0..64)
+            .map(|i| [1.0, 1.0, 1.0, if i < 16 { 0.0 } else { 0.4 }])
+            .collect();
+        let lut = Lut::new(0.0, 1.0, e).unwrap();
+        for k in [KernelName::Tent, KernelName::Bspln3, KernelName::C4hexic] {
+            let one = SkipGrid::new(&vol, k, &lut);
+            let ef = one.empty_fraction();
+            assert!(ef > 0.0 && ef < 0.95, "{k:?}: {ef}");
+            for t in 1..=7 {
+                let many = build_skip_grid(SkipPlan::new(&vol, k, &lut), &vol, t);
+                assert!(many == one, "{k:?} with {t} threads");
+            }
+        }
+    }
 }
