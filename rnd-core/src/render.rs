@@ -14,7 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
-use crate::skip::{SkipGrid, SkipPlan};
+use crate::skip::{SkipGrid, SkipPlan, COARSE_EMPTY, FINE_EMPTY};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -783,7 +783,8 @@ impl RenderSpec<'_> {
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
                 if let Some(sk) = skip {
-                    if sk.coarse_empty_at(n) {
+                    let flags = sk.flags_at(n);
+                    if flags & COARSE_EMPTY != 0 {
                         // Every sample up to the last one in the empty box around this
                         // block is empty too.
                         let bx = sk.empty_box(n);
@@ -792,7 +793,7 @@ impl RenderSpec<'_> {
                         k = last + 1;
                         continue;
                     }
-                    if sk.empty_at(n) {
+                    if flags & FINE_EMPTY != 0 {
                         // Transparent by the fine grid: counted, not convolved.
                         acc.add_transparent(1);
                         k += 1;

@@ -22,9 +22,10 @@ const _: () = assert!(B.is_multiple_of(F));
 /// empty block is from the nearest block that is not.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkipGrid {
-    /// Fine blocks per axis and which of them are empty.
+    /// Fine blocks per axis and their flags ([`FINE_EMPTY`], [`COARSE_EMPTY`] for the
+    /// coarse block holding it).
     nf: [usize; 3],
-    fine: Vec<bool>,
+    fine: Vec<u8>,
     /// Coarse blocks per axis and which of them are empty (every fine block in it is).
     nb: [usize; 3],
     empty: Vec<bool>,
@@ -32,6 +33,11 @@ pub struct SkipGrid {
     /// (0 for a non-empty block; saturates at 255; blocks beyond the grid do not count).
     dist: Vec<u8>,
 }
+
+/// Flag of a fine block: every sample whose support starts in it is transparent.
+pub const FINE_EMPTY: u8 = 1;
+/// Flag of a fine block: so is every sample of the coarse block that holds it.
+pub const COARSE_EMPTY: u8 = 2;
 
 /// Largest Σ|w| of one axis's weights over all fractional positions (sampled finely,
 /// plus a margin).
@@ -100,11 +106,11 @@ impl<'l> SkipPlan<'l> {
         self.nb[2]
     }
 
-    /// The fine and coarse grids to fill, all false.
-    pub fn outputs(&self) -> (Vec<bool>, Vec<bool>) {
+    /// The fine and coarse grids to fill, all clear.
+    pub fn outputs(&self) -> (Vec<u8>, Vec<bool>) {
         let (nf, nb) = (self.nf, self.nb);
         (
-            alloc::vec![false; nf[0] * nf[1] * nf[2]],
+            alloc::vec![0; nf[0] * nf[1] * nf[2]],
             alloc::vec![false; nb[0] * nb[1] * nb[2]],
         )
     }
@@ -117,10 +123,10 @@ impl<'l> SkipPlan<'l> {
     /// When the ranges ask for more slabs than the grids hold.
     pub fn split<'o>(
         &self,
-        mut fine: &'o mut [bool],
+        mut fine: &'o mut [u8],
         mut empty: &'o mut [bool],
         slabs: &[core::ops::Range<usize>],
-    ) -> Vec<(&'o mut [bool], &'o mut [bool])> {
+    ) -> Vec<(&'o mut [u8], &'o mut [bool])> {
         const R: usize = B / F;
         let (nf, nb) = (self.nf, self.nb);
         let mut parts = Vec::with_capacity(slabs.len());
@@ -141,7 +147,7 @@ impl<'l> SkipPlan<'l> {
         &self,
         vol: &Volume<'_, V>,
         slabs: core::ops::Range<usize>,
-        fine: &mut [bool],
+        fine: &mut [u8],
         empty: &mut [bool],
     ) {
         let (sizes, nf, nb, nz, wneg, kernel) = (
@@ -241,29 +247,26 @@ impl<'l> SkipPlan<'l> {
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &(l, _)| {
                             (a.min(fmin[l]), b.max(fmax[l]))
                         });
-                    let all = if zero_opacity(m, mx) {
-                        for &(_, g) in cells {
-                            fine[g] = true;
-                        }
-                        true
-                    } else {
-                        let mut all = true;
-                        for &(l, g) in cells {
+                    let all = zero_opacity(m, mx)
+                        || cells.iter().fold(true, |all, &(l, g)| {
                             let e = zero_opacity(fmin[l], fmax[l]);
-                            fine[g] = e;
-                            all &= e;
-                        }
-                        all
-                    };
+                            fine[g] = if e { FINE_EMPTY } else { 0 };
+                            all & e
+                        });
                     // A coarse block is empty when every fine block in it is.
                     empty[ci + nb[0] * (cj + nb[1] * ck) - e0] = all;
+                    if all {
+                        for &(_, g) in cells {
+                            fine[g] = FINE_EMPTY | COARSE_EMPTY;
+                        }
+                    }
                 }
             }
         }
     }
 
     /// The grid from the filled `fine` and `empty` grids.
-    pub fn finish(self, fine: Vec<bool>, empty: Vec<bool>) -> SkipGrid {
+    pub fn finish(self, fine: Vec<u8>, empty: Vec<bool>) -> SkipGrid {
         let dist = chessboard_distance(self.nb, &empty);
         SkipGrid {
             nf: self.nf,
@@ -285,12 +288,19 @@ impl SkipGrid {
         plan.finish(fine, empty)
     }
 
+    /// The flags ([`FINE_EMPTY`], [`COARSE_EMPTY`]) of the fine block of support start
+    /// `lo` (all three axes inside the volume).
+    #[inline(always)]
+    pub fn flags_at(&self, lo: [i64; 3]) -> u8 {
+        let b = [lo[0] as usize / F, lo[1] as usize / F, lo[2] as usize / F];
+        self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
+    }
+
     /// True when the convolution whose support starts at index `lo` (all three axes
     /// inside the volume) has zero LUT opacity, as far as the fine grid tells.
     #[inline(always)]
     pub fn empty_at(&self, lo: [i64; 3]) -> bool {
-        let b = [lo[0] as usize / F, lo[1] as usize / F, lo[2] as usize / F];
-        self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
+        self.flags_at(lo) & FINE_EMPTY != 0
     }
 
     /// True when every convolution whose support starts in the coarse block of `lo`
@@ -322,7 +332,8 @@ impl SkipGrid {
 
     /// Fraction of fine blocks marked empty.
     pub fn empty_fraction(&self) -> f64 {
-        self.fine.iter().filter(|&&e| e).count() as f64 / self.fine.len().max(1) as f64
+        let n = self.fine.iter().filter(|&&e| e & FINE_EMPTY != 0).count();
+        n as f64 / self.fine.len().max(1) as f64
     }
 }
 
@@ -453,7 +464,13 @@ mod tests {
                     for fk in (bk * B / F..(bk + 1) * B / F).filter(|&x| x < nf[2]) {
                         for fj in (bj * B / F..(bj + 1) * B / F).filter(|&x| x < nf[1]) {
                             for fi in (bi * B / F..(bi + 1) * B / F).filter(|&x| x < nf[0]) {
-                                all &= g.fine[fi + nf[0] * (fj + nf[1] * fk)];
+                                let f = g.fine[fi + nf[0] * (fj + nf[1] * fk)];
+                                all &= f & super::FINE_EMPTY != 0;
+                                // The coarse flag on every fine block says the same.
+                                prop_assert_eq!(
+                                    f & super::COARSE_EMPTY != 0,
+                                    g.empty[bi + nb[0] * (bj + nb[1] * bk)]
+                                );
                             }
                         }
                     }
