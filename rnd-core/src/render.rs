@@ -99,6 +99,9 @@ pub struct RenderSpec<'a> {
     alpha_table: Option<(f32, Vec<f32>)>,
     /// ln(1 − α) of each LUT entry's clamped opacity (see [`correct_alpha`]).
     ln_transparency: Vec<f64>,
+    /// Whether the depth cue changes colours (not both ends 1, where each factor is 1
+    /// + τ · 0 = 1 exactly, τ being finite).
+    depth_cue: bool,
 }
 
 fn rerr(msg: alloc::string::String) -> Error {
@@ -183,6 +186,7 @@ impl<'a> RenderSpec<'a> {
             || (params.probe == Probe::Rgba && levoy.is_some());
         let channels = params.probe.length() + usize::from(params.time);
         let lights = WorldLights::new(lights, &camera);
+        let depth_cue = params.dcn != [1.0; 3] || params.dcf != [1.0; 3];
         let mut spec = RenderSpec {
             params,
             camera,
@@ -194,6 +198,7 @@ impl<'a> RenderSpec<'a> {
             once,
             alpha_table: None,
             ln_transparency: Vec::new(),
+            depth_cue,
         };
         if let Some(lut) = lut {
             if lut.entries().len() <= 1 << 20 {
@@ -400,9 +405,11 @@ impl RenderSpec<'_> {
         let mut rgb = [e[0], e[1], e[2]];
         if p.probe == Probe::RgbaLit {
             rgb = blinn_phong(&p.phong, &self.lights, rgb, *gw, g.to_eye);
-            let tau = tau();
-            for c in 0..3 {
-                rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+            if self.depth_cue {
+                let tau = tau();
+                for c in 0..3 {
+                    rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+                }
             }
         }
         *out = [rgb[0], rgb[1], rgb[2], a];
@@ -607,15 +614,16 @@ impl RenderSpec<'_> {
 
     /// The last sample in [k, k1) of the ray `start_i + k step_i` (index space) whose
     /// support start lies in box `bx` (`[first, last]` per axis), which holds sample k's;
-    /// `inv` holds the reciprocals of `step_i`. An estimate from the box's faces is
-    /// checked with the exact sample positions (support starts are monotone along the
-    /// ray on each axis, so the samples between two members are members), then one
-    /// sample less (round-off in the estimate), then bisected down.
+    /// `faces` are the ray's [`BoxFaces`]. An estimate from the box's faces is checked
+    /// with the exact sample positions (support starts are monotone along the ray on
+    /// each axis, so the samples between two members are members), then one sample less
+    /// (round-off in the estimate), then bisected down.
+    #[inline]
     fn box_run_end<K: Kernel<S>, const S: usize>(
         bx: &[[i64; 2]; 3],
         start_i: &[f64; 3],
         step_i: &[f64; 3],
-        inv: &[f64; 3],
+        faces: &BoxFaces,
         k: u32,
         k1: u32,
     ) -> u32 {
@@ -625,24 +633,13 @@ impl RenderSpec<'_> {
             let n = locate::<K, S>(p).0;
             (0..3).all(|a| bx[a][0] <= n[a] && n[a] <= bx[a][1])
         };
-        // Support start n = floor(x + off) + LO, so starts [f, l] are the positions x in
-        // [f − LO − off, l + 1 − LO − off). The estimate need not be exact: it is
-        // checked below, so truncations stand in for floor and ceil.
-        let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
+        // The crossing of the exit face on each axis the ray moves along; the least is
+        // where the ray leaves the box.
         let mut est = (k1 - 1) as f64;
         for a in 0..3 {
-            let [f, l] = bx[a];
-            let (s, d) = (start_i[a], step_i[a]);
-            let last = if d > 0.0 {
-                let hi = (l + 1) as f64 - K::LO as f64 - off;
-                (hi - s) * inv[a]
-            } else if d < 0.0 {
-                let lo = f as f64 - K::LO as f64 - off;
-                (lo - s) * inv[a]
-            } else {
-                continue;
-            };
-            est = est.min(last);
+            if let Some(side) = faces.side[a] {
+                est = est.min((bx[a][side] as f64 + faces.off[a]) * faces.inv[a]);
+            }
         }
         // Largest whole number below est (or k).
         let est = if est > k as f64 + 1.0 {
@@ -707,7 +704,7 @@ impl RenderSpec<'_> {
         };
         let over = p.blend == Blend::Over;
         let skip = if over { skip } else { None };
-        let inv = step_i.map(|d| 1.0 / d);
+        let faces = BoxFaces::new::<K, S>(&start_i, &step_i);
         let mut acc = Accum::new(p.blend, p.probe.length());
         let cam = &self.camera;
         let pos = |k: u32| {
@@ -788,7 +785,7 @@ impl RenderSpec<'_> {
                         // Every sample up to the last one in the empty box around this
                         // block is empty too.
                         let bx = sk.empty_box(n);
-                        let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &inv, k, k1);
+                        let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &faces, k, k1);
                         acc.add_transparent(last - k + 1);
                         k = last + 1;
                         continue;
@@ -860,6 +857,44 @@ impl RenderSpec<'_> {
                 }
             }
         }
+    }
+}
+
+/// Per-ray constants of [`RenderSpec::box_run_end`]: on each axis the ray moves along,
+/// which face of a box of support starts it leaves by (0 first, 1 last), and the sample
+/// number where it crosses a face is estimated as `(face + off) · inv`.
+#[derive(Debug, Clone, Copy)]
+struct BoxFaces {
+    side: [Option<usize>; 3],
+    off: [f64; 3],
+    inv: [f64; 3],
+}
+
+impl BoxFaces {
+    /// The constants for the index-space ray `start_i + k step_i`. Support start n =
+    /// floor(x + o) + LO (o = 0.5 for odd supports, else 0), so starts [f, l] are the
+    /// positions x in [f − LO − o, l + 1 − LO − o). The estimates need not be exact (they
+    /// are checked).
+    #[inline]
+    fn new<K: Kernel<S>, const S: usize>(start_i: &[f64; 3], step_i: &[f64; 3]) -> Self {
+        let o = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
+        let mut f = BoxFaces {
+            side: [None; 3],
+            off: [0.0; 3],
+            inv: [0.0; 3],
+        };
+        for a in 0..3 {
+            let (s, d) = (start_i[a], step_i[a]);
+            if d > 0.0 {
+                f.side[a] = Some(1);
+                f.off[a] = 1.0 - K::LO as f64 - o - s;
+            } else if d < 0.0 {
+                f.side[a] = Some(0);
+                f.off[a] = -(K::LO as f64) - o - s;
+            }
+            f.inv[a] = 1.0 / d;
+        }
+        f
     }
 }
 
