@@ -107,16 +107,16 @@ fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
     }
 }
 
-/// Writes `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
+/// Writes (and consumes) `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
 /// sizes C W H, `content` as given). `-` writes NRRD to stdout.
 pub fn write_image(
-    img: &Image,
+    img: Image,
     path: &Path,
     content: &str,
     range: Option<(f64, f64)>,
 ) -> Result<()> {
     if is_png(path) {
-        let bytes = png_bytes(img, range)?;
+        let bytes = png_bytes(&img, range)?;
         return write_atomic(path, |w| {
             w.write_all(&bytes)
                 .map_err(|e| Error::msg(format!("write failed: {e}")))
@@ -124,7 +124,7 @@ pub fn write_image(
     }
     let mut n = Nrrd::new(
         vec![img.channels, img.size[0], img.size[1]],
-        Data::F32(img.data.clone()),
+        Data::F32(img.data),
     )?;
     n.header.content = Some(content.to_string());
     nrrd::write(&n, path, WriteOptions::default())

@@ -389,6 +389,6 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         size: [w as usize, h as usize],
     };
     let o = out.unwrap_or_default();
-    write_image(&img, &o, &super::content("go", a), q).with_context(|| "writing the image")?;
+    write_image(img, &o, &super::content("go", a), q).with_context(|| "writing the image")?;
     Ok(())
 }

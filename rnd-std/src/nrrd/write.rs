@@ -169,15 +169,18 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
 }
 
 fn to_bytes(n: &Nrrd, e: Endian) -> Vec<u8> {
-    each_data!(&n.data, v => {
-        let mut out = Vec::with_capacity(v.len() * std::mem::size_of_val(&v[0..v.len().min(1)]).max(1));
-        for x in v {
-            match e {
-                Endian::Little => out.extend_from_slice(&x.to_le_bytes()),
-                Endian::Big => out.extend_from_slice(&x.to_be_bytes()),
-            }
+    fn put<T: Copy, const S: usize>(v: &[T], f: impl Fn(T) -> [u8; S]) -> Vec<u8> {
+        // Sized once and filled in fixed-size pieces, which compiles to a plain copy
+        // (or a byte swap) of the whole buffer.
+        let mut out = vec![0u8; v.len() * S];
+        for (o, &x) in out.chunks_exact_mut(S).zip(v) {
+            o.copy_from_slice(&f(x));
         }
         out
+    }
+    each_data!(&n.data, v => match e {
+        Endian::Little => put(v, |x| x.to_le_bytes()),
+        Endian::Big => put(v, |x| x.to_be_bytes()),
     })
 }
 
