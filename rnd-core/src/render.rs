@@ -303,6 +303,13 @@ pub struct SampleInfo {
 impl RenderSpec<'_> {
     /// Geometry of the ray through pixel (hi, vi).
     pub fn ray_geom(&self, hi: u32, vi: u32) -> RayGeom {
+        self.ray_geom_eye(hi, vi, true)
+    }
+
+    /// [`RenderSpec::ray_geom`], with `to_eye` left zero unless `eye` (only lighting
+    /// uses it).
+    #[inline]
+    fn ray_geom_eye(&self, hi: u32, vi: u32, eye: bool) -> RayGeom {
         let cam = &self.camera;
         let ps = if self.once {
             0.0
@@ -310,15 +317,19 @@ impl RenderSpec<'_> {
             self.params.plane_sep
         };
         let (start_v, step_v) = cam.ray(hi, vi, ps);
-        // Direction to the eye from a unit-separation step (valid also when ps = 0).
-        let (_, dir_v) = cam.ray(hi, vi, 1.0);
-        let dir_w = cam.vtow.vector(dir_v);
-        let dl = math::v3::len(dir_w);
-        let to_eye = [
-            (-dir_w[0] / dl) as f32,
-            (-dir_w[1] / dl) as f32,
-            (-dir_w[2] / dl) as f32,
-        ];
+        let to_eye = if eye {
+            // Direction to the eye from a unit-separation step (valid also when ps = 0).
+            let (_, dir_v) = cam.ray(hi, vi, 1.0);
+            let dir_w = cam.vtow.vector(dir_v);
+            let dl = math::v3::len(dir_w);
+            [
+                (-dir_w[0] / dl) as f32,
+                (-dir_w[1] / dl) as f32,
+                (-dir_w[2] / dl) as f32,
+            ]
+        } else {
+            [0.0; 3]
+        };
         let step_w = cam.vtow.vector(step_v);
         let step_len = math::v3::len(step_w);
         RayGeom {
@@ -555,7 +566,7 @@ impl RenderSpec<'_> {
         // -z(k) never decreases (the step points away from the eye), so the stopping
         // condition is false … false true … true over k = 1 ..= kmax + 1.
         let (s, d) = (g.start_v[2], g.step_v[2]);
-        let guess = math::ceil((-cam.fcv - s) / d);
+        let guess = ceil_estimate((-cam.fcv - s) / d);
         first_true_near(1, kmax + 1, guess, |k| -(s + k as f64 * d) > cam.fcv)
     }
 
@@ -590,7 +601,7 @@ impl RenderSpec<'_> {
             let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
             let tlo = -(K::LO as f64) - off;
             let thi = sizes[a] as f64 - S as f64 - K::LO as f64 + 1.0 - off;
-            let near = |t: f64| math::ceil((t - s) / d);
+            let near = |t: f64| ceil_estimate((t - s) / d);
             let (a0, a1) = if d > 0.0 {
                 (
                     first_true_near(0, kend, near(tlo), |k| class(k) >= 0),
@@ -693,7 +704,7 @@ impl RenderSpec<'_> {
         out: &mut [f32],
     ) {
         let p = &self.params;
-        let g = self.ray_geom(hi, vi);
+        let g = self.ray_geom_eye(hi, vi, p.probe == Probe::RgbaLit);
         let wtoi = *convo.volume().wtoi();
         let start_i = wtoi.point(g.start_w);
         let step_i = wtoi.vector(g.step_w);
@@ -924,6 +935,21 @@ fn correct_alpha_ln(a: f32, l: f64, ex: f32) -> f32 {
         0.0
     } else {
         (1.0 - math::exp(ex as f64 * l)) as f32
+    }
+}
+
+/// About ⌈x⌉ (exact for |x| < 2^63; NaN stays NaN), cheaper than a library ceil: for
+/// the estimates that [`first_true_near`] starts from, which need not be exact.
+#[inline(always)]
+fn ceil_estimate(x: f64) -> f64 {
+    if !x.is_finite() {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t < x {
+        t + 1.0
+    } else {
+        t
     }
 }
 
