@@ -2,8 +2,9 @@
 //! is zero for every value the convolution can reach, so the ray can skip the
 //! convolution there. Exact: a skipped sample would have had opacity 0, which adds
 //! nothing under `over` (its "inside" status, which decides outsideValue, is kept).
-//! Fine blocks ([`F`] support starts per axis) decide single samples; coarse blocks
-//! ([`B`], every fine block inside empty) carry the distance map that long jumps use.
+//! Fine blocks (4 support starts per axis) decide single samples; coarse blocks
+//! (8 per axis, every fine block inside empty) carry the distance map that long jumps
+//! use.
 
 use alloc::vec::Vec;
 

@@ -21,11 +21,30 @@ pub trait Voxel: sealed::Sealed + Copy + Send + Sync + Default + PartialOrd + 's
     /// bounds that a NaN voxel makes unbounded.
     fn widen_bounds(lo: &mut [Self], hi: &mut [Self], src: &[Self]);
     /// Element by element, `lo[i] = min(lo[i], slo[i])` and `hi[i] = max(hi[i],
-    /// shi[i])`, for bounds without NaN (as [`Voxel::widen_bounds`] makes them).
-    fn merge_bounds(lo: &mut [Self], hi: &mut [Self], slo: &[Self], shi: &[Self]);
+    /// shi[i])`, for bounds without NaN (as [`Voxel::widen_bounds`] makes them); two
+    /// plain loops the compiler vectorizes.
+    #[inline]
+    fn merge_bounds(lo: &mut [Self], hi: &mut [Self], slo: &[Self], shi: &[Self]) {
+        for (lo, &l) in lo.iter_mut().zip(slo) {
+            *lo = if l < *lo { l } else { *lo };
+        }
+        for (hi, &h) in hi.iter_mut().zip(shi) {
+            *hi = if h > *hi { h } else { *hi };
+        }
+    }
     /// The least and greatest of `lo` and `hi` (bounds without NaN) as f32, (+∞, −∞)
     /// when empty.
-    fn bounds_f32(lo: &[Self], hi: &[Self]) -> (f32, f32);
+    #[inline]
+    fn bounds_f32(lo: &[Self], hi: &[Self]) -> (f32, f32) {
+        if lo.is_empty() || hi.is_empty() {
+            return (f32::INFINITY, f32::NEG_INFINITY);
+        }
+        let m = lo.iter().fold(Self::TOP, |a, &x| if x < a { x } else { a });
+        let mx = hi
+            .iter()
+            .fold(Self::BOTTOM, |a, &x| if x > a { x } else { a });
+        (m.to_f32(), mx.to_f32())
+    }
     /// The samples as f32 without conversion, when they already are f32.
     #[inline(always)]
     fn as_f32_slice(_s: &[Self]) -> Option<&[f32]> {
@@ -82,25 +101,6 @@ impl Voxel for f32 {
             *lo = if l < *lo { l } else { *lo };
             *hi = if h > *hi { h } else { *hi };
         }
-    }
-    #[inline]
-    fn merge_bounds(lo: &mut [f32], hi: &mut [f32], slo: &[f32], shi: &[f32]) {
-        for (lo, &l) in lo.iter_mut().zip(slo) {
-            *lo = if l < *lo { l } else { *lo };
-        }
-        for (hi, &h) in hi.iter_mut().zip(shi) {
-            *hi = if h > *hi { h } else { *hi };
-        }
-    }
-    #[inline]
-    fn bounds_f32(lo: &[f32], hi: &[f32]) -> (f32, f32) {
-        let m = lo
-            .iter()
-            .fold(f32::INFINITY, |a, &x| if x < a { x } else { a });
-        let mx = hi
-            .iter()
-            .fold(f32::NEG_INFINITY, |a, &x| if x > a { x } else { a });
-        (m, mx)
     }
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -166,22 +166,6 @@ impl Voxel for i16 {
         for ((lo, hi), &v) in lo.iter_mut().zip(hi.iter_mut()).zip(src) {
             *lo = (*lo).min(v);
             *hi = (*hi).max(v);
-        }
-    }
-    #[inline]
-    fn merge_bounds(lo: &mut [i16], hi: &mut [i16], slo: &[i16], shi: &[i16]) {
-        for (lo, &l) in lo.iter_mut().zip(slo) {
-            *lo = (*lo).min(l);
-        }
-        for (hi, &h) in hi.iter_mut().zip(shi) {
-            *hi = (*hi).max(h);
-        }
-    }
-    #[inline]
-    fn bounds_f32(lo: &[i16], hi: &[i16]) -> (f32, f32) {
-        match (lo.iter().min(), hi.iter().max()) {
-            (Some(&m), Some(&mx)) => (m as f32, mx as f32),
-            _ => (f32::INFINITY, f32::NEG_INFINITY),
         }
     }
     #[inline(always)]
