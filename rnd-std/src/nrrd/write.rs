@@ -136,36 +136,58 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
             }
             w.write_all(out.as_bytes()).map_err(io)?;
         }
-        enc => {
-            let bytes = to_bytes(n, opt.endian);
-            match enc {
-                Encoding::Raw => w.write_all(&bytes).map_err(io)?,
-                Encoding::Hex => {
-                    let mut out = String::with_capacity(bytes.len() * 2 + bytes.len() / 32);
-                    for (i, b) in bytes.iter().enumerate() {
-                        out.push_str(&format!("{b:02x}"));
-                        if (i + 1) % 32 == 0 {
-                            out.push('\n');
-                        }
+        enc => match enc {
+            Encoding::Raw => write_samples(n, opt.endian, w).map_err(io)?,
+            Encoding::Hex => {
+                let bytes = to_bytes(n, opt.endian);
+                let mut out = String::with_capacity(bytes.len() * 2 + bytes.len() / 32);
+                for (i, b) in bytes.iter().enumerate() {
+                    out.push_str(&format!("{b:02x}"));
+                    if (i + 1) % 32 == 0 {
+                        out.push('\n');
                     }
-                    out.push('\n');
-                    w.write_all(out.as_bytes()).map_err(io)?;
                 }
-                Encoding::Gzip => {
-                    let mut e = flate2::write::GzEncoder::new(w, flate2::Compression::new(6));
-                    e.write_all(&bytes).map_err(io)?;
-                    e.finish().map_err(io)?;
-                }
-                Encoding::Bzip2 => {
-                    let mut e = bzip2::write::BzEncoder::new(w, bzip2::Compression::new(6));
-                    e.write_all(&bytes).map_err(io)?;
-                    e.finish().map_err(io)?;
-                }
-                Encoding::Ascii => unreachable!("handled above"),
+                out.push('\n');
+                w.write_all(out.as_bytes()).map_err(io)?;
             }
-        }
+            Encoding::Gzip => {
+                let mut e = flate2::write::GzEncoder::new(w, flate2::Compression::new(6));
+                write_samples(n, opt.endian, &mut e).map_err(io)?;
+                e.finish().map_err(io)?;
+            }
+            Encoding::Bzip2 => {
+                let mut e = bzip2::write::BzEncoder::new(w, bzip2::Compression::new(6));
+                write_samples(n, opt.endian, &mut e).map_err(io)?;
+                e.finish().map_err(io)?;
+            }
+            Encoding::Ascii => unreachable!("handled above"),
+        },
     }
     Ok(())
+}
+
+/// Writes the samples of `n` in byte order `e`, converted a piece at a time through one
+/// small buffer (no copy of the whole array).
+fn write_samples(n: &Nrrd, e: Endian, w: &mut dyn Write) -> std::io::Result<()> {
+    fn put<T: Copy, const S: usize>(
+        v: &[T],
+        f: impl Fn(T) -> [u8; S],
+        w: &mut dyn Write,
+    ) -> std::io::Result<()> {
+        let mut buf = vec![0u8; (64 << 10) / S * S];
+        for part in v.chunks(buf.len() / S) {
+            let bytes = &mut buf[..part.len() * S];
+            for (o, &x) in bytes.chunks_exact_mut(S).zip(part) {
+                o.copy_from_slice(&f(x));
+            }
+            w.write_all(bytes)?;
+        }
+        Ok(())
+    }
+    each_data!(&n.data, v => match e {
+        Endian::Little => put(v, |x| x.to_le_bytes(), w),
+        Endian::Big => put(v, |x| x.to_be_bytes(), w),
+    })
 }
 
 fn to_bytes(n: &Nrrd, e: Endian) -> Vec<u8> {
