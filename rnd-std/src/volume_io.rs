@@ -75,7 +75,13 @@ impl VolumeBuf {
 
 /// Loads a volume from a file (`-` = stdin).
 pub fn load_volume(path: &Path) -> Result<VolumeBuf> {
-    let n = nrrd::read(path)?;
+    load_volume_threads(path, 1)
+}
+
+/// [`load_volume`], reading large raw data with `threads` threads at once (the same
+/// volume for any count).
+pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
+    let n = nrrd::read_with_threads(path, threads)?;
     volume_from_nrrd(n).map_err(|e| e.with_path(path))
 }
 

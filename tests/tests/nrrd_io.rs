@@ -280,3 +280,54 @@ fn rendr_reads_what_teem_writes() {
         );
     }
 }
+
+/// Large raw data read with several threads (each filling its own part) equals the
+/// one-thread read, for every type and both byte orders, also after byte and line
+/// skips and with sample counts that do not split evenly.
+#[test]
+fn threaded_raw_read_equals_one_thread() {
+    let dir = std::env::temp_dir().join(format!("rendr-par-read-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let n = (5 << 20) / 8 + 3; // over 4 MiB for the widest types
+    for (ti, &t) in ScalarType::ALL.iter().enumerate() {
+        let size = t.size();
+        // Enough samples that the data exceeds the threaded-read threshold (4 MiB).
+        let n = n * 8 / size + ti;
+        let raw: Vec<u64> = (0..n as u64)
+            .map(|i| i.wrapping_mul(0x9e37_79b9_7f4a_7c15))
+            .collect();
+        for big in [false, true] {
+            let a = Nrrd::new(vec![n], data_of(t, &raw)).unwrap();
+            let opt = WriteOptions {
+                encoding: Encoding::Raw,
+                endian: if big { Endian::Big } else { Endian::Little },
+            };
+            let mut bytes = Vec::new();
+            nrrd::write_to(&a, opt, &mut bytes).unwrap();
+            // The same data after a line skip and a byte skip.
+            let cut = bytes.windows(2).position(|w| w == b"\n\n").unwrap() + 1;
+            let mut skipped = bytes[..cut].to_vec();
+            skipped.extend_from_slice(b"line skip: 1\nbyte skip: 3\n\nfirst line\nxyz");
+            skipped.extend_from_slice(&bytes[cut + 1..]);
+            for (name, b) in [("plain", &bytes), ("skips", &skipped)] {
+                let p = dir.join(format!("{t}-{big}-{name}.nrrd"));
+                std::fs::write(&p, b).unwrap();
+                let one = nrrd::read(&p).unwrap();
+                for threads in [2, 3, 7] {
+                    let many = nrrd::read_with_threads(&p, threads).unwrap();
+                    assert_eq!(many.sizes(), one.sizes());
+                    assert!(
+                        (0..n).all(
+                            |i| many.data.get_f64(i).to_bits() == one.data.get_f64(i).to_bits()
+                        ),
+                        "{t} big={big} {name} threads={threads}"
+                    );
+                }
+                assert!(
+                    (0..n).all(|i| one.data.get_f64(i).to_bits() == a.data.get_f64(i).to_bits())
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

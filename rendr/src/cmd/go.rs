@@ -250,11 +250,12 @@ impl VolumeCache {
     pub fn get(
         &mut self,
         path: &Path,
+        threads: usize,
     ) -> anyhow::Result<std::rc::Rc<rnd_std::volume_io::VolumeBuf>> {
         if let Some(v) = self.vols.get(path) {
             return Ok(v.clone());
         }
-        let v = std::rc::Rc::new(rnd_std::volume_io::load_volume(path)?);
+        let v = std::rc::Rc::new(rnd_std::volume_io::load_volume_threads(path, threads)?);
         if path.as_os_str() != "-" {
             self.vols.insert(path.to_path_buf(), v.clone());
         }
@@ -333,7 +334,7 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         lev.as_ref(),
         lights.as_deref().unwrap_or(&[]),
     )?;
-    let vol = cache.get(&input)?;
+    let vol = cache.get(&input, threads)?;
     if debug {
         let [w, h] = spec.size();
         if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {

@@ -11,7 +11,7 @@ mod text;
 mod write;
 
 pub use header::{Centering, Encoding, Endian, Header, ScalarType};
-pub use read::{centering, read, read_bytes};
+pub use read::{centering, read, read_bytes, read_with_threads};
 pub use text::{parse_text, write_text};
 pub use write::{write, write_to, WriteOptions};
 

@@ -9,6 +9,12 @@ use crate::{Error, Result};
 
 /// Reads a NRRD or plain-text array from `path` (`-` = stdin).
 pub fn read(path: &Path) -> Result<Nrrd> {
+    read_with_threads(path, 1)
+}
+
+/// [`read`], reading large raw data with `threads` threads at once (each fills its own
+/// part of the samples; the same result for any count).
+pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
     if path.as_os_str() == "-" {
         let mut b = Vec::new();
         std::io::stdin()
@@ -17,7 +23,7 @@ pub fn read(path: &Path) -> Result<Nrrd> {
         return read_bytes(&b, Path::new(".")).map_err(|e| e.with_path(path));
     }
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    match read_streaming(path) {
+    match read_streaming(path, threads) {
         Ok(Some(n)) => Ok(n),
         Ok(None) => {
             let b = std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?;
@@ -31,7 +37,7 @@ pub fn read(path: &Path) -> Result<Nrrd> {
 /// typed samples, so a volume needs its own size in memory and not twice that. Returns
 /// None for everything else (text arrays, detached headers, ascii/hex data, byte skip
 /// -1), which the in-memory reader handles.
-fn read_streaming(path: &Path) -> Result<Option<Nrrd>> {
+fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     use std::io::BufRead;
     // Pipes and other special files are read once, whole, by the in-memory reader.
     match std::fs::metadata(path) {
@@ -102,6 +108,17 @@ fn read_streaming(path: &Path) -> Result<Option<Nrrd>> {
             file_len.saturating_sub(header_len + skip)
         )));
     }
+    #[cfg(unix)]
+    if enc == Encoding::Raw && threads > 1 && nbytes >= PARALLEL_MIN {
+        use std::io::Seek;
+        let off = r
+            .stream_position()
+            .map_err(|e| Error::io(path, "can't read", e))?;
+        let data = read_raw_parallel(r.get_ref(), off, parsed.scalar, parsed.endian, n, threads)
+            .map_err(|e| Error::io(path, "can't read", e))?;
+        let Parsed { header, .. } = parsed;
+        return Ok(Some(Nrrd { header, data }));
+    }
     let mut src: Box<dyn Read> = match enc {
         Encoding::Gzip => Box::new(flate2::read::MultiGzDecoder::new(r)),
         Encoding::Bzip2 => Box::new(bzip2::read::MultiBzDecoder::new(r)),
@@ -137,19 +154,122 @@ fn read_streaming(path: &Path) -> Result<Option<Nrrd>> {
     Ok(Some(Nrrd { header, data }))
 }
 
+/// Raw data of at least this many bytes is read by several threads when asked.
+const PARALLEL_MIN: usize = 4 << 20;
+
+/// A sample type read from raw bytes.
+trait RawSample: Copy + Send {
+    const SIZE: usize;
+    /// The sample in byte order `e` at the start of `b` (at least SIZE bytes).
+    fn get(b: &[u8], e: Endian) -> Self;
+}
+
+macro_rules! raw_sample {
+    ($($t:ty),*) => {$(
+        impl RawSample for $t {
+            const SIZE: usize = std::mem::size_of::<$t>();
+            #[inline(always)]
+            fn get(b: &[u8], e: Endian) -> Self {
+                let a: [u8; std::mem::size_of::<$t>()] =
+                    b[..std::mem::size_of::<$t>()].try_into().expect("sample size");
+                match e {
+                    Endian::Little => <$t>::from_le_bytes(a),
+                    Endian::Big => <$t>::from_be_bytes(a),
+                }
+            }
+        }
+    )*};
+}
+raw_sample!(i8, u8, i16, u16, i32, u32, i64, u64, f32, f64);
+
+/// Reads `n` raw samples of type `scalar` in byte order `e` from file offset `off` of
+/// `f` with `threads` threads, each populating and filling one part of the buffer.
+#[cfg(unix)]
+fn read_raw_parallel(
+    f: &std::fs::File,
+    off: u64,
+    scalar: ScalarType,
+    e: Endian,
+    n: usize,
+    threads: usize,
+) -> std::io::Result<Data> {
+    fn fill<T: RawSample>(
+        v: &mut Vec<T>,
+        f: &std::fs::File,
+        off: u64,
+        e: Endian,
+        n: usize,
+        threads: usize,
+    ) -> std::io::Result<()> {
+        use std::os::unix::fs::FileExt;
+        v.reserve_exact(n);
+        advise_huge_pages(v.as_ptr() as usize, n * T::SIZE, false);
+        let per = n.div_ceil(threads.max(1)).max(1);
+        let parts = &mut v.spare_capacity_mut()[..n];
+        std::thread::scope(|s| {
+            let jobs: Vec<_> = parts
+                .chunks_mut(per)
+                .enumerate()
+                .map(|(i, part)| {
+                    s.spawn(move || -> std::io::Result<()> {
+                        populate(part.as_ptr() as usize, std::mem::size_of_val(part));
+                        let mut buf = vec![0u8; (256 << 10) / T::SIZE * T::SIZE];
+                        let mut at = off + (i * per * T::SIZE) as u64;
+                        for piece in part.chunks_mut(buf.len() / T::SIZE) {
+                            let b = &mut buf[..piece.len() * T::SIZE];
+                            f.read_exact_at(b, at)?;
+                            for (d, c) in piece.iter_mut().zip(b.chunks_exact(T::SIZE)) {
+                                d.write(T::get(c, e));
+                            }
+                            at += b.len() as u64;
+                        }
+                        Ok(())
+                    })
+                })
+                .collect();
+            jobs.into_iter().try_for_each(|j| {
+                j.join()
+                    .unwrap_or_else(|_| Err(std::io::Error::other("a reading thread failed")))
+            })
+        })?;
+        // SAFETY: every one of the n samples was written above (each part whole, or an
+        // error returned before this point), and the capacity is at least n.
+        unsafe { v.set_len(n) };
+        Ok(())
+    }
+    let mut data = from_bytes(scalar, &[], e, 0);
+    match &mut data {
+        Data::I8(v) => fill(v, f, off, e, n, threads)?,
+        Data::U8(v) => fill(v, f, off, e, n, threads)?,
+        Data::I16(v) => fill(v, f, off, e, n, threads)?,
+        Data::U16(v) => fill(v, f, off, e, n, threads)?,
+        Data::I32(v) => fill(v, f, off, e, n, threads)?,
+        Data::U32(v) => fill(v, f, off, e, n, threads)?,
+        Data::I64(v) => fill(v, f, off, e, n, threads)?,
+        Data::U64(v) => fill(v, f, off, e, n, threads)?,
+        Data::F32(v) => fill(v, f, off, e, n, threads)?,
+        Data::F64(v) => fill(v, f, off, e, n, threads)?,
+    }
+    Ok(data)
+}
+
 /// Reserves room for `n` samples in `d` at once and, for large buffers, asks the kernel to
 /// back them with huge pages (fewer TLB misses when rays wander through a big volume).
 fn reserve_all(d: &mut Data, n: usize) {
     fn reserve<T>(v: &mut Vec<T>, n: usize) {
         v.reserve_exact(n);
-        advise_huge_pages(v.as_ptr() as usize, v.capacity() * std::mem::size_of::<T>());
+        advise_huge_pages(
+            v.as_ptr() as usize,
+            v.capacity() * std::mem::size_of::<T>(),
+            true,
+        );
     }
     super::each_data!(d, v => reserve(v, n));
 }
 
 /// Advises huge pages for the whole 2 MiB pages inside `[addr, addr + len)` (Linux; a
-/// no-op elsewhere and for buffers under 8 MiB).
-fn advise_huge_pages(addr: usize, len: usize) {
+/// no-op elsewhere and for buffers under 8 MiB), and maps them all now when `fill`.
+fn advise_huge_pages(addr: usize, len: usize, fill: bool) {
     #[cfg(target_os = "linux")]
     {
         const HUGE: usize = 2 << 20;
@@ -166,13 +286,27 @@ fn advise_huge_pages(addr: usize, len: usize) {
                 libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
             }
         }
-        // Map the whole buffer now, in one call, rather than page by page as the data
-        // arrives (each fault is costly, more so in a virtual machine). Older kernels
-        // refuse the advice; then the pages come on demand as before.
+        if fill {
+            populate(addr, len);
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (addr, len, fill);
+}
+
+/// Maps the pages of `[addr, addr + len)` (part of one live allocation) now, in one
+/// call, rather than page by page as the data arrives (each fault is costly, more so in
+/// a virtual machine). Older kernels refuse the advice; then the pages come on demand.
+fn populate(addr: usize, len: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        if len == 0 {
+            return;
+        }
         let first = addr / 4096 * 4096;
         let last = (addr + len).next_multiple_of(4096);
-        // SAFETY: as above, on the pages that hold the allocation [addr, addr + len);
-        // populating pages for writing does not change any contents.
+        // SAFETY: the pages hold the caller's allocation; populating pages for writing
+        // changes no contents (bytes of neighbouring data on a shared page included).
         unsafe {
             libc::madvise(
                 first as *mut libc::c_void,
