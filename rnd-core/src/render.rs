@@ -233,11 +233,7 @@ impl<'a> RenderSpec<'a> {
     /// The empty-space-skipping grid for `vol`, when it applies (an `over` render of a
     /// colour probe with `params.skip_empty`).
     pub fn skip_grid<V: Voxel>(&self, vol: &Volume<'_, V>, kernel: KernelName) -> Option<SkipGrid> {
-        self.skip_plan(vol, kernel).map(|plan| {
-            let (mut fine, mut empty) = plan.outputs();
-            plan.build_slabs(vol, 0..plan.slabs(), &mut fine, &mut empty);
-            plan.finish(fine, empty)
-        })
+        self.skip_plan(vol, kernel).map(|plan| plan.build(vol))
     }
 
     /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
@@ -714,8 +710,10 @@ impl RenderSpec<'_> {
             return self.cast_skip(convo, skip, hi, vi, out, None);
         };
         let over = p.blend == Blend::Over;
-        let skip = if over { skip } else { None };
-        let faces = BoxFaces::new::<K, S>(&start_i, &step_i);
+        // The skip grid (over only) with this ray's box-face constants.
+        let skip = skip
+            .filter(|_| over)
+            .map(|sk| (sk, BoxFaces::new::<K, S>(&start_i, &step_i)));
         let mut acc = Accum::new(p.blend, p.probe.length());
         let cam = &self.camera;
         let pos = |k: u32| {
@@ -790,13 +788,13 @@ impl RenderSpec<'_> {
             }
             while m < LANES && k < k1 {
                 let (n, a) = pos(k);
-                if let Some(sk) = skip {
+                if let Some((sk, faces)) = &skip {
                     let flags = sk.flags_at(n);
                     if flags & COARSE_EMPTY != 0 {
                         // Every sample up to the last one in the empty box around this
                         // block is empty too.
                         let bx = sk.empty_box(n);
-                        let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, &faces, k, k1);
+                        let last = Self::box_run_end::<K, S>(&bx, &start_i, &step_i, faces, k, k1);
                         acc.add_transparent(last - k + 1);
                         k = last + 1;
                         continue;

@@ -18,6 +18,8 @@ const B: usize = 8;
 /// Fine block edge length in support starts (divides [`B`]).
 const F: usize = 4;
 const _: () = assert!(B.is_multiple_of(F));
+/// Fine blocks per coarse block along each axis.
+const R: usize = B / F;
 
 /// Which blocks of support-base indices give zero opacity everywhere, and how far each
 /// empty block is from the nearest block that is not.
@@ -128,7 +130,6 @@ impl<'l> SkipPlan<'l> {
         mut empty: &'o mut [bool],
         slabs: &[core::ops::Range<usize>],
     ) -> Vec<(&'o mut [u8], &'o mut [bool])> {
-        const R: usize = B / F;
         let (nf, nb) = (self.nf, self.nb);
         let mut parts = Vec::with_capacity(slabs.len());
         for r in slabs {
@@ -187,7 +188,6 @@ impl<'l> SkipPlan<'l> {
         // block's range is the union of its fine blocks' ranges, so the LUT is tested
         // once for a coarse block and only when that fails for each of its fine blocks
         // (a zero-opacity range has zero-opacity parts).
-        const R: usize = B / F;
         let range = |b: usize, a: usize| (b * F)..((b + 1) * F + s - 1).min(sizes[a]);
         let data = vol.data();
         let (s0, s1) = (sizes[0], sizes[1]);
@@ -266,6 +266,13 @@ impl<'l> SkipPlan<'l> {
         }
     }
 
+    /// The whole grid, built on this thread.
+    pub fn build<V: Voxel>(self, vol: &Volume<'_, V>) -> SkipGrid {
+        let (mut fine, mut empty) = self.outputs();
+        self.build_slabs(vol, 0..self.slabs(), &mut fine, &mut empty);
+        self.finish(fine, empty)
+    }
+
     /// The grid from the filled `fine` and `empty` grids.
     pub fn finish(self, fine: Vec<u8>, empty: Vec<bool>) -> SkipGrid {
         let dist = chessboard_distance(self.nb, &empty);
@@ -283,10 +290,7 @@ impl SkipGrid {
     /// Builds the grid for `vol` reconstructed with `kernel` and opacities from `lut`
     /// (on this thread; see [`SkipPlan`] for building it in parts).
     pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &Lut) -> SkipGrid {
-        let plan = SkipPlan::new(vol, kernel, lut);
-        let (mut fine, mut empty) = plan.outputs();
-        plan.build_slabs(vol, 0..plan.slabs(), &mut fine, &mut empty);
-        plan.finish(fine, empty)
+        SkipPlan::new(vol, kernel, lut).build(vol)
     }
 
     /// The flags ([`FINE_EMPTY`], [`COARSE_EMPTY`]) of the fine block of support start

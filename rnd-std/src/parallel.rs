@@ -115,22 +115,20 @@ pub fn build_skip_grid<V: Voxel>(
     vol: &Volume<'_, V>,
     threads: usize,
 ) -> SkipGrid {
-    let (mut fine, mut empty) = plan.outputs();
     let n = plan.slabs();
     let t = threads.clamp(1, n.max(1));
     if t == 1 {
-        plan.build_slabs(vol, 0..n, &mut fine, &mut empty);
-    } else {
-        let ranges: Vec<std::ops::Range<usize>> =
-            (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
-        let parts = plan.split(&mut fine, &mut empty, &ranges);
-        let plan = &plan;
-        std::thread::scope(|s| {
-            for (r, (f, e)) in ranges.iter().cloned().zip(parts) {
-                s.spawn(move || plan.build_slabs(vol, r, f, e));
-            }
-        });
+        return plan.build(vol);
     }
+    let (mut fine, mut empty) = plan.outputs();
+    let ranges: Vec<std::ops::Range<usize>> = (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
+    let parts = plan.split(&mut fine, &mut empty, &ranges);
+    let plan_ref = &plan;
+    std::thread::scope(|s| {
+        for (r, (f, e)) in ranges.iter().cloned().zip(parts) {
+            s.spawn(move || plan_ref.build_slabs(vol, r, f, e));
+        }
+    });
     plan.finish(fine, empty)
 }
 
