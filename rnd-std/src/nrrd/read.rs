@@ -160,7 +160,7 @@ const PARALLEL_MIN: usize = 4 << 20;
 /// A sample type read from raw bytes.
 trait RawSample: Copy + Send {
     const SIZE: usize;
-    /// The sample in byte order `e` at the start of `b` (at least SIZE bytes).
+    /// The sample in byte order `e` held in `b` (exactly SIZE bytes).
     fn get(b: &[u8], e: Endian) -> Self;
 }
 
@@ -170,8 +170,7 @@ macro_rules! raw_sample {
             const SIZE: usize = std::mem::size_of::<$t>();
             #[inline(always)]
             fn get(b: &[u8], e: Endian) -> Self {
-                let a: [u8; std::mem::size_of::<$t>()] =
-                    b[..std::mem::size_of::<$t>()].try_into().expect("sample size");
+                let a: [u8; std::mem::size_of::<$t>()] = b.try_into().expect("sample size");
                 match e {
                     Endian::Little => <$t>::from_le_bytes(a),
                     Endian::Big => <$t>::from_be_bytes(a),
@@ -238,18 +237,7 @@ fn read_raw_parallel(
         Ok(())
     }
     let mut data = from_bytes(scalar, &[], e, 0);
-    match &mut data {
-        Data::I8(v) => fill(v, f, off, e, n, threads)?,
-        Data::U8(v) => fill(v, f, off, e, n, threads)?,
-        Data::I16(v) => fill(v, f, off, e, n, threads)?,
-        Data::U16(v) => fill(v, f, off, e, n, threads)?,
-        Data::I32(v) => fill(v, f, off, e, n, threads)?,
-        Data::U32(v) => fill(v, f, off, e, n, threads)?,
-        Data::I64(v) => fill(v, f, off, e, n, threads)?,
-        Data::U64(v) => fill(v, f, off, e, n, threads)?,
-        Data::F32(v) => fill(v, f, off, e, n, threads)?,
-        Data::F64(v) => fill(v, f, off, e, n, threads)?,
-    }
+    super::each_data!(&mut data, v => fill(v, f, off, e, n, threads))?;
     Ok(data)
 }
 
@@ -322,35 +310,15 @@ fn populate(addr: usize, len: usize) {
 /// Appends the samples in `b` (whole samples) to `d`, reserving up to `total` samples
 /// in steps as data arrives.
 fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) {
-    macro_rules! go {
-        ($v:ident, $ty:ty) => {{
-            const S: usize = std::mem::size_of::<$ty>();
-            let add = b.len() / S;
-            if $v.capacity() - $v.len() < add {
-                let grow = ($v.len() + add).max(2 * $v.len()).min(total);
-                $v.reserve_exact(grow.saturating_sub($v.len()).max(add));
-            }
-            $v.extend(b.chunks_exact(S).map(|c| {
-                let a: [u8; S] = c.try_into().expect("chunk size");
-                match e {
-                    Endian::Little => <$ty>::from_le_bytes(a),
-                    Endian::Big => <$ty>::from_be_bytes(a),
-                }
-            }));
-        }};
+    fn go<T: RawSample>(v: &mut Vec<T>, b: &[u8], e: Endian, total: usize) {
+        let add = b.len() / T::SIZE;
+        if v.capacity() - v.len() < add {
+            let grow = (v.len() + add).max(2 * v.len()).min(total);
+            v.reserve_exact(grow.saturating_sub(v.len()).max(add));
+        }
+        v.extend(b.chunks_exact(T::SIZE).map(|c| T::get(c, e)));
     }
-    match d {
-        Data::I8(v) => go!(v, i8),
-        Data::U8(v) => go!(v, u8),
-        Data::I16(v) => go!(v, i16),
-        Data::U16(v) => go!(v, u16),
-        Data::I32(v) => go!(v, i32),
-        Data::U32(v) => go!(v, u32),
-        Data::I64(v) => go!(v, i64),
-        Data::U64(v) => go!(v, u64),
-        Data::F32(v) => go!(v, f32),
-        Data::F64(v) => go!(v, f64),
-    }
+    super::each_data!(d, v => go(v, b, e, total))
 }
 
 /// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data

@@ -139,7 +139,8 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
         enc => match enc {
             Encoding::Raw => write_samples(n, opt.endian, w).map_err(io)?,
             Encoding::Hex => {
-                let bytes = to_bytes(n, opt.endian);
+                let mut bytes = Vec::with_capacity(n.data.len() * h.scalar.size());
+                write_samples(n, opt.endian, &mut bytes).map_err(io)?;
                 let mut out = String::with_capacity(bytes.len() * 2 + bytes.len() / 32);
                 for (i, b) in bytes.iter().enumerate() {
                     out.push_str(&format!("{b:02x}"));
@@ -187,22 +188,6 @@ fn write_samples(n: &Nrrd, e: Endian, w: &mut dyn Write) -> std::io::Result<()> 
     each_data!(&n.data, v => match e {
         Endian::Little => put(v, |x| x.to_le_bytes(), w),
         Endian::Big => put(v, |x| x.to_be_bytes(), w),
-    })
-}
-
-fn to_bytes(n: &Nrrd, e: Endian) -> Vec<u8> {
-    fn put<T: Copy, const S: usize>(v: &[T], f: impl Fn(T) -> [u8; S]) -> Vec<u8> {
-        // Sized once and filled in fixed-size pieces, which compiles to a plain copy
-        // (or a byte swap) of the whole buffer.
-        let mut out = vec![0u8; v.len() * S];
-        for (o, &x) in out.chunks_exact_mut(S).zip(v) {
-            o.copy_from_slice(&f(x));
-        }
-        out
-    }
-    each_data!(&n.data, v => match e {
-        Endian::Little => put(v, |x| x.to_le_bytes()),
-        Endian::Big => put(v, |x| x.to_be_bytes()),
     })
 }
 
