@@ -66,6 +66,18 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     fn weights_d1(alpha: f64) -> [f32; S] {
         core::array::from_fn(|i| Self::d1(alpha - (Self::LO + i as i32) as f64) as f32)
     }
+    /// Kernel value at `x` as the reference-arithmetic mode evaluates it
+    /// ([`crate::refarith`]): by default [`Kernel::k`] in f64 rounded to f32.
+    #[inline(always)]
+    fn k_ref(x: f32) -> f32 {
+        Self::k::<f64>(x as f64) as f32
+    }
+    /// First derivative at `x` for the reference-arithmetic mode (by default
+    /// [`Kernel::d1`] in f64 rounded to f32).
+    #[inline(always)]
+    fn d1_ref(x: f32) -> f32 {
+        Self::d1::<f64>(x as f64) as f32
+    }
     /// Integer base index and fractional offset for index-space coordinate `x`
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
@@ -249,6 +261,37 @@ impl Kernel<4> for Bspln3 {
         }
     }
     const CUBIC4: Option<[[[f32; 4]; 4]; 2]> = Some(BSPLN3_CUBICS);
+    /// The course reference's f32 form: nested in |x| on [0, 1) and in |x| − 1 on
+    /// [1, 2) (shown bit for bit against `cube-rgb.nrrd`, see `refarith`).
+    #[inline(always)]
+    fn k_ref(x: f32) -> f32 {
+        let mut t = x.abs();
+        if t < 1.0 {
+            2.0 / 3.0 + t * t * (-1.0 + t / 2.0)
+        } else if t < 2.0 {
+            t -= 1.0;
+            1.0 / 6.0 + t * (-0.5 + t * (0.5 - t / 6.0))
+        } else {
+            0.0
+        }
+    }
+    #[inline(always)]
+    fn d1_ref(x: f32) -> f32 {
+        let mut t = x.abs();
+        let r = if t < 1.0 {
+            t * (-2.0 + t * 1.5)
+        } else if t < 2.0 {
+            t -= 1.0;
+            -0.5 + t * (1.0 - t / 2.0)
+        } else {
+            0.0
+        };
+        if x < 0.0 {
+            -r
+        } else {
+            r
+        }
+    }
     #[inline(always)]
     fn weights(a: f64) -> [f32; 4] {
         horner4(&BSPLN3_CUBICS[0], a as f32)

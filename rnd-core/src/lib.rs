@@ -46,6 +46,7 @@ pub mod kernel;
 pub mod light;
 pub mod math;
 pub mod probe;
+pub mod refarith;
 pub mod render;
 pub mod sdg;
 pub mod skip;

@@ -18,6 +18,11 @@ pub fn sqrtf(x: f32) -> f32 {
 pub fn floor(x: f64) -> f64 {
     libm::floor(x)
 }
+/// Largest integer not above `x` (f32).
+#[inline(always)]
+pub fn floorf(x: f32) -> f32 {
+    libm::floorf(x)
+}
 /// Smallest integer ≥ `x` (f64).
 #[inline(always)]
 pub fn ceil(x: f64) -> f64 {

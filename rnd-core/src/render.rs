@@ -14,6 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
+use crate::refarith::{self, RefCamera, RefIndex};
 use crate::skip::{SkipGrid, SkipPlan, COARSE_EMPTY, FINE_EMPTY};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
@@ -56,6 +57,10 @@ pub struct RenderParams {
     /// each ray's inside stretch is found up front and only it is sampled. Exact: the
     /// output is bit-identical to the plain loop.
     pub fast_loop: bool,
+    /// Compute in the course reference program's f32 arithmetic (`-ref`,
+    /// [`crate::refarith`]) instead of the default engine (f64 geometry, reordered
+    /// sums): reproduces the reference's images, slower.
+    pub reference: bool,
 }
 
 impl RenderParams {
@@ -76,6 +81,7 @@ impl RenderParams {
             time: false,
             skip_empty: true,
             fast_loop: true,
+            reference: false,
         }
     }
 }
@@ -102,6 +108,9 @@ pub struct RenderSpec<'a> {
     /// Whether the depth cue changes colours (not both ends 1, where each factor is 1
     /// + τ · 0 = 1 exactly, τ being finite).
     depth_cue: bool,
+    /// The f32 camera and lights of the reference arithmetic (`params.reference`).
+    ref_cam: RefCamera,
+    ref_lights: Vec<([f32; 3], [f32; 3])>,
 }
 
 fn rerr(msg: alloc::string::String) -> Error {
@@ -185,6 +194,12 @@ impl<'a> RenderSpec<'a> {
             || params.probe == Probe::RgbaLit
             || (params.probe == Probe::Rgba && levoy.is_some());
         let channels = params.probe.length() + usize::from(params.time);
+        let ref_cam = RefCamera::new(&params.camera);
+        let ref_lights = if params.reference {
+            ref_cam.lights(lights)
+        } else {
+            Vec::new()
+        };
         let lights = WorldLights::new(lights, &camera);
         let depth_cue = params.dcn != [1.0; 3] || params.dcf != [1.0; 3];
         let mut spec = RenderSpec {
@@ -199,6 +214,8 @@ impl<'a> RenderSpec<'a> {
             alpha_table: None,
             ln_transparency: Vec::new(),
             depth_cue,
+            ref_cam,
+            ref_lights,
         };
         if let Some(lut) = lut {
             if lut.entries().len() <= 1 << 20 {
@@ -435,7 +452,11 @@ impl RenderSpec<'_> {
         out: &mut [f32],
         mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
     ) {
-        self.cast_skip(convo, None, hi, vi, out, trace.take());
+        if self.params.reference {
+            self.cast_ref(convo, None, hi, vi, out, trace.take());
+        } else {
+            self.cast_skip(convo, None, hi, vi, out, trace.take());
+        }
     }
 
     /// [`RenderSpec::cast`] with optional empty-space skipping (`over` only; ignored
@@ -524,6 +545,175 @@ impl RenderSpec<'_> {
             k += 1;
         }
         acc.finish(p.outside, out);
+    }
+
+    /// [`RenderSpec::cast_skip`] in the reference program's f32 arithmetic
+    /// ([`crate::refarith`]; `params.reference`). Skipping empty blocks (`over` only) is
+    /// exact here too: such a sample has opacity 0, which leaves T and C unchanged.
+    pub fn cast_ref<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        convo: &Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+        mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
+    ) {
+        let p = &self.params;
+        let vol = convo.volume();
+        let over = p.blend == Blend::Over;
+        let skip = if over && p.probe.is_colour() {
+            skip
+        } else {
+            None
+        };
+        let cam = &self.ref_cam;
+        let ps = if self.once { 0.0 } else { p.plane_sep as f32 };
+        let ray = cam.ray(hi, vi, ps, p.unit_step as f32);
+        let wtoi = RefIndex::new(vol.itow());
+        let needs_convo = p.probe.needs_convo();
+        let mut acc = Accum::new(p.blend, p.probe.length());
+        // `over`: premultiplied colour in acc[..3] and the transparency T.
+        let mut transp = 1.0f32;
+        let kmax = self.plane_limit();
+        let mut k: u32 = 0;
+        loop {
+            let kf = k as f32;
+            let pv: [f32; 3] = core::array::from_fn(|a| ray.start[a] + kf * ray.step[a]);
+            if k > 0 && (-pv[2] > cam.fcv || k > kmax) {
+                break;
+            }
+            let pw = cam.to_world(pv, 1.0);
+            let pi = wtoi.point(pw);
+            let empty = match skip {
+                Some(sk) => {
+                    refarith::support_start::<V, K, S>(vol, pi).is_some_and(|n| sk.empty_at(n))
+                }
+                None => false,
+            };
+            let sample = if needs_convo && !empty {
+                refarith::convolve::<V, K, S>(vol, pi, self.need_grad)
+            } else {
+                None
+            };
+            let inside = empty
+                || sample.is_some()
+                || (!needs_convo && refarith::support_start::<V, K, S>(vol, pi).is_some());
+            let grad_w = sample.map_or([0.0; 3], |s| wtoi.gradient(s.grad_i));
+            let value = sample.map_or(0.0, |s| s.value);
+            let mut pr = [0.0f32; 4];
+            let counted = match p.probe {
+                Probe::PosView => {
+                    pr[..3].copy_from_slice(&pv);
+                    true
+                }
+                Probe::PosWorld => {
+                    pr[..3].copy_from_slice(&pw);
+                    true
+                }
+                Probe::PosIndex => {
+                    pr[..3].copy_from_slice(&pi);
+                    true
+                }
+                Probe::Inside => {
+                    pr[0] = if inside { 1.0 } else { 0.0 };
+                    true
+                }
+                _ if !inside => false,
+                _ if empty => true,
+                Probe::Value => {
+                    pr[0] = value;
+                    true
+                }
+                Probe::GradVec => {
+                    pr[..3].copy_from_slice(&grad_w);
+                    true
+                }
+                Probe::GradMag => {
+                    pr[0] = math::sqrtf(
+                        grad_w[0] * grad_w[0] + grad_w[1] * grad_w[1] + grad_w[2] * grad_w[2],
+                    );
+                    true
+                }
+                Probe::Rgba | Probe::RgbaLit => {
+                    self.colour_ref(value, grad_w, &ray, pv[2], &mut pr)
+                }
+            };
+            if counted {
+                if over {
+                    let a = pr[3];
+                    for c in 0..3 {
+                        acc.acc[c] += transp * a * pr[c];
+                    }
+                    transp *= 1.0 - a;
+                    acc.acc[3] = 1.0 - transp;
+                    acc.count += 1;
+                } else {
+                    acc.add(&pr);
+                }
+            }
+            if let Some(t) = trace.as_deref_mut() {
+                let wide = |a: [f32; 3]| a.map(f64::from);
+                t(&SampleInfo {
+                    k,
+                    pos_v: wide(pv),
+                    pos_w: wide(pw),
+                    convo: ConvoSample {
+                        pos_i: wide(pi),
+                        inside,
+                        value,
+                        grad_i: sample.map_or([0.0; 3], |s| s.grad_i),
+                        grad_w,
+                    },
+                    probe: pr,
+                    counted,
+                    accum: acc,
+                });
+            }
+            if self.once {
+                break;
+            }
+            if over && acc.acc[3] > p.alpha_near1 {
+                acc.acc[3] = 1.0;
+                break;
+            }
+            k += 1;
+        }
+        acc.finish(p.outside, out);
+    }
+
+    /// The rgba / rgbalit probe in reference arithmetic for value `v` and world gradient
+    /// `g` at view depth `z`; false without a LUT.
+    #[inline]
+    fn colour_ref(
+        &self,
+        v: f32,
+        g: [f32; 3],
+        ray: &refarith::RefRay,
+        z: f32,
+        out: &mut [f32; 4],
+    ) -> bool {
+        let p = &self.params;
+        let Some(lut) = self.lut else { return false };
+        let e = lut.entries()[lut.index(v as f64)];
+        let mut a = e[3];
+        if let Some(lev) = self.levoy {
+            a *= lev.opacity(v, math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]));
+        }
+        let a = refarith::correct_alpha(a, ray.alpha_exp);
+        let mut rgb = [e[0], e[1], e[2]];
+        if a != 0.0 && p.probe == Probe::RgbaLit {
+            rgb = refarith::blinn_phong(&p.phong, &self.ref_lights, rgb, g, ray.to_eye);
+            if self.depth_cue {
+                let cam = &self.ref_cam;
+                let tau = (-z - cam.ncv) / (cam.fcv - cam.ncv);
+                for c in 0..3 {
+                    rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+                }
+            }
+        }
+        *out = [rgb[0], rgb[1], rgb[2], a];
+        true
     }
 
     /// Whether [`RenderSpec::cast_fast`] applies: asked for, and a probe that is only
@@ -856,7 +1046,9 @@ impl RenderSpec<'_> {
             for hi in 0..w {
                 let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
                 let t0 = clock.map(|c| c());
-                if fast {
+                if self.params.reference {
+                    self.cast_ref(convo, skip, hi as u32, vi, &mut px[..plen], None);
+                } else if fast {
                     self.cast_fast(convo, skip, hi as u32, vi, &mut px[..plen]);
                 } else {
                     self.cast_skip(convo, skip, hi as u32, vi, &mut px[..plen], None);

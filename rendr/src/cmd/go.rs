@@ -161,6 +161,12 @@ pub static SPEC: CmdSpec = CmdSpec {
                 "accelerated ray loop: sample only each ray's inside stretch, batched \
                  (exact; false = the plain reference loop)",
             ),
+            flag(
+                &["ref"],
+                "reference arithmetic: the course reference program's f32 operation \
+                 order (camera, ray steps, kernel formulas, summation), which \
+                 reproduces its images bit for bit where possible; several times slower",
+            ),
             opt(&["q"], 2, "min max", "quantization range for PNG output"),
             opt(
                 &["o"],
@@ -284,6 +290,7 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
     params.time = a.flag("t");
     params.skip_empty = a.get("ess")?;
     params.fast_loop = a.get("fast")?;
+    params.reference = a.flag("ref");
     let threads = match a.given("nt") {
         true => a.get::<usize>("nt")?,
         false => rnd_std::parallel::default_threads(),
