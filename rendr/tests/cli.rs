@@ -1115,6 +1115,61 @@ fn db_traces_one_ray() {
     assert!(s.lines().last().unwrap().starts_with("result: "));
 }
 
+/// `go -ref` with the SPEC §4.9 command reproduces cube-rgb.nrrd on every pixel, and
+/// `-db` with `-ref` traces the same arithmetic (its result is the image's pixel).
+#[test]
+fn go_ref_reproduces_cube_rgb() {
+    let Some(sh) = rnd_tests::shared("go_ref_reproduces_cube_rgb") else {
+        return;
+    };
+    let rd = sh.join("rendr-data");
+    let d = rnd_tests::tmpdir("goref");
+    let (cube, lut, rgb) = (
+        rd.join("cube.nrrd"),
+        rd.join("lut.nrrd"),
+        rd.join("rgb.txt"),
+    );
+    let mut args: Vec<&str> = vec!["go", "-i", cube.to_str().unwrap()];
+    args.extend([
+        "-fr", "6", "12", "5", "-at", "0", "0", "0", "-up", "0", "0", "1", "-nc", "-2.3", "-fc",
+        "2.3", "-fov", "14", "-sz", "320", "280", "-us", "0.03", "-s", "0.03", "-k", "bspln3",
+        "-p", "rgbalit", "-b", "over", "-nt", "2", "-ref",
+    ]);
+    args.extend(["-lut", lut.to_str().unwrap(), "-lit", rgb.to_str().unwrap()]);
+    let mut render = args.clone();
+    render.extend(["-o", "cube-rgb.nrrd"]);
+    ok(&d, &render);
+    let (s, got) = read_floats(&d.join("cube-rgb.nrrd"));
+    let (ws, want) = read_floats(&rd.join("cube-rgb.nrrd"));
+    assert_eq!(s, ws);
+    let worst = got
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 2.5e-6, "go -ref: max error {worst}");
+
+    // SPEC §13.5 pixel (176, 19) traced: the last line is the pixel's value.
+    let mut trace = args.clone();
+    trace.extend(["-db", "176", "19"]);
+    let out = ok(&d, &trace);
+    let last = out.lines().last().unwrap();
+    let vals: Vec<f32> = last
+        .strip_prefix("result: ")
+        .unwrap()
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    let i = 4 * (176 + 320 * 19);
+    for c in 0..4 {
+        assert!(
+            (vals[c] - got[i + c]).abs() < 1e-6 * (1.0 + got[i + c].abs()),
+            "{last} vs image {:?}",
+            &got[i..i + 4]
+        );
+    }
+}
+
 #[test]
 fn readme_default_render() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
