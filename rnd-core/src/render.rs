@@ -390,6 +390,19 @@ impl RenderSpec<'_> {
         true
     }
 
+    /// Early ray termination (`-a1`): under `over`, once the accumulated opacity passes
+    /// alphaNear1 it is taken as 1 and the ray ends (true).
+    #[inline(always)]
+    fn opaque_end(&self, acc: &mut Accum) -> bool {
+        let p = &self.params;
+        if p.blend == Blend::Over && acc.acc[3] > p.alpha_near1 {
+            acc.acc[3] = 1.0;
+            true
+        } else {
+            false
+        }
+    }
+
     /// The corrected opacity of LUT entry `i` on ray `g` without Levoy opacity.
     #[inline(always)]
     fn lut_alpha(&self, lut: &Lut, i: usize, g: &RayGeom) -> f32 {
@@ -484,7 +497,6 @@ impl RenderSpec<'_> {
         let step_i = wtoi.vector(g.step_w);
         let needs_convo = p.probe.needs_convo();
         let mut acc = Accum::new(p.blend, p.probe.length());
-        let over = p.blend == Blend::Over;
         let fcv = self.camera.fcv;
         let kmax = self.plane_limit();
         let mut k: u32 = 0;
@@ -535,11 +547,7 @@ impl RenderSpec<'_> {
                     accum: acc,
                 });
             }
-            if self.once {
-                break;
-            }
-            if over && acc.acc[3] > p.alpha_near1 {
-                acc.acc[3] = 1.0;
+            if self.once || self.opaque_end(&mut acc) {
                 break;
             }
             k += 1;
@@ -670,11 +678,7 @@ impl RenderSpec<'_> {
                     accum: acc,
                 });
             }
-            if self.once {
-                break;
-            }
-            if over && acc.acc[3] > p.alpha_near1 {
-                acc.acc[3] = 1.0;
+            if self.once || self.opaque_end(&mut acc) {
                 break;
             }
             k += 1;
@@ -938,11 +942,7 @@ impl RenderSpec<'_> {
                 }
             }
             acc.add(&pr);
-            if over && acc.acc[3] > p.alpha_near1 {
-                acc.acc[3] = 1.0;
-                return true;
-            }
-            false
+            self.opaque_end(acc)
         };
         // Batches of LANES samples (convolved phase by phase, see Convo::sums_n),
         // blended in order. Samples in empty blocks are not convolved: blending them

@@ -36,6 +36,15 @@ fn cube_params() -> RenderParams {
     p
 }
 
+/// The reference's cube volume, LUT and lights (`rendr-data/`).
+fn cube_inputs(d: &Path) -> (volume_io::VolumeBuf, Lut, Vec<rnd_core::light::Light>) {
+    (
+        volume_io::load_volume(&d.join("cube.nrrd")).unwrap(),
+        files::load_lut(&d.join("lut.nrrd")).unwrap(),
+        files::load_lights(&d.join("rgb.txt")).unwrap(),
+    )
+}
+
 /// Distance (in LUT entries) from the nearest LUT bin boundary of the counted sample
 /// values of one ray; a tiny distance means float round-off decides which entry is used.
 struct NearestBoundary<'s, 'a> {
@@ -70,9 +79,7 @@ fn cube_rgb_matches_reference() {
         return;
     };
     let d = sh.join("rendr-data");
-    let vol = volume_io::load_volume(&d.join("cube.nrrd")).unwrap();
-    let lut = files::load_lut(&d.join("lut.nrrd")).unwrap();
-    let lights = files::load_lights(&d.join("rgb.txt")).unwrap();
+    let (vol, lut, lights) = cube_inputs(&d);
     let spec = RenderSpec::new(cube_params(), Some(&lut), None, &lights).unwrap();
     let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false);
     let reference = nrrd::read(&d.join("cube-rgb.nrrd")).unwrap();
@@ -168,9 +175,7 @@ fn cube_rgb_reference_arithmetic_matches_every_pixel() {
         return;
     };
     let d = sh.join("rendr-data");
-    let vol = volume_io::load_volume(&d.join("cube.nrrd")).unwrap();
-    let lut = files::load_lut(&d.join("lut.nrrd")).unwrap();
-    let lights = files::load_lights(&d.join("rgb.txt")).unwrap();
+    let (vol, lut, lights) = cube_inputs(&d);
     let mut p = cube_params();
     p.reference = true;
     let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
@@ -275,23 +280,32 @@ fn real_volumes_load() {
     assert_eq!(water.type_name(), "real");
 }
 
+/// `sdg -w which` as f32 samples on a 4-unit box of `sizes`, rotated by quaternion
+/// (1, rot) and centred at `centre`: samples, sizes and index-to-world.
+fn sdg_f32(
+    which: u32,
+    sizes: [usize; 3],
+    rot: [f64; 3],
+    centre: [f64; 3],
+) -> (Vec<f32>, [usize; 3], rnd_core::affine::Affine4) {
+    let grid = rnd_core::sdg::Grid {
+        sizes,
+        lengths: [4.0; 3],
+        shear: [0.0; 3],
+        rot,
+        centre,
+    };
+    let (vals, itow) = rnd_core::sdg::generate(which, &grid).unwrap();
+    (vals.iter().map(|&v| v as f32).collect(), sizes, itow)
+}
+
 /// Threads 1, 2 and 7 give identical bytes for every valid probe/blend pair.
 #[test]
 fn threads_give_identical_images() {
-    use rnd_core::affine::Affine4;
     use rnd_core::light::Light;
     use rnd_core::render::AnyVolume;
-    use rnd_core::sdg::Grid;
-    let grid = Grid {
-        sizes: [24, 26, 28],
-        lengths: [4.0; 3],
-        shear: [0.0; 3],
-        rot: [0.1, 0.2, 0.0],
-        centre: [0.0; 3],
-    };
-    let (vals, itow): (Vec<f64>, Affine4) = rnd_core::sdg::generate(2, &grid).unwrap();
-    let data: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
-    let vol = Volume::new(&data, grid.sizes, itow).unwrap();
+    let (data, sizes, itow) = sdg_f32(2, [24, 26, 28], [0.1, 0.2, 0.0], [0.0; 3]);
+    let vol = Volume::new(&data, sizes, itow).unwrap();
     let atxf = rnd_core::txf::Txf::new(
         rnd_core::txf::TxfSpace::Alpha,
         &[&[0.0, 0.0], &[0.8, 0.0], &[0.9, 1.0]],
@@ -341,17 +355,8 @@ fn threads_give_identical_images() {
 fn reference_arithmetic_agrees_with_default_engine() {
     use rnd_core::light::Light;
     use rnd_core::render::AnyVolume;
-    use rnd_core::sdg::Grid;
-    let grid = Grid {
-        sizes: [30, 26, 28],
-        lengths: [4.0; 3],
-        shear: [0.0; 3],
-        rot: [0.3, 0.2, 0.1],
-        centre: [0.1, 0.0, 0.0],
-    };
-    let (vals, itow) = rnd_core::sdg::generate(16, &grid).unwrap();
-    let data: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
-    let vol = Volume::new(&data, grid.sizes, itow).unwrap();
+    let (data, sizes, itow) = sdg_f32(16, [30, 26, 28], [0.3, 0.2, 0.1], [0.1, 0.0, 0.0]);
+    let vol = Volume::new(&data, sizes, itow).unwrap();
     let atxf = rnd_core::txf::Txf::new(
         rnd_core::txf::TxfSpace::Alpha,
         &[&[0.0, 0.0], &[6.0, 0.1], &[9.0, 0.7]],
