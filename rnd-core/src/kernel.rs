@@ -265,27 +265,27 @@ impl Kernel<4> for Bspln3 {
     /// [1, 2) (shown bit for bit against `cube-rgb.nrrd`, see `refarith`).
     #[inline(always)]
     fn k_ref(x: f32) -> f32 {
-        let mut t = x.abs();
+        // Both pieces computed, one selected: the same operations as branching on |x|
+        // for the piece used, and vectorizable across samples.
+        let t = x.abs();
+        let near = 2.0 / 3.0 + t * t * (-1.0 + t / 2.0);
+        let u = t - 1.0;
+        let far = 1.0 / 6.0 + u * (-0.5 + u * (0.5 - u / 6.0));
+        let r = if t < 2.0 { far } else { 0.0 };
         if t < 1.0 {
-            2.0 / 3.0 + t * t * (-1.0 + t / 2.0)
-        } else if t < 2.0 {
-            t -= 1.0;
-            1.0 / 6.0 + t * (-0.5 + t * (0.5 - t / 6.0))
+            near
         } else {
-            0.0
+            r
         }
     }
     #[inline(always)]
     fn d1_ref(x: f32) -> f32 {
-        let mut t = x.abs();
-        let r = if t < 1.0 {
-            t * (-2.0 + t * 1.5)
-        } else if t < 2.0 {
-            t -= 1.0;
-            -0.5 + t * (1.0 - t / 2.0)
-        } else {
-            0.0
-        };
+        let t = x.abs();
+        let near = t * (-2.0 + t * 1.5);
+        let u = t - 1.0;
+        let far = -0.5 + u * (1.0 - u / 2.0);
+        let r = if t < 2.0 { far } else { 0.0 };
+        let r = if t < 1.0 { near } else { r };
         if x < 0.0 {
             -r
         } else {
@@ -634,6 +634,51 @@ impl FromStr for KernelName {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The course reference's bspln3 forms, branching on |x| as written there.
+    fn bspln3_ref_branching(x: f32) -> (f32, f32) {
+        let mut t = x.abs();
+        let (k, d) = if t < 1.0 {
+            (
+                2.0 / 3.0 + t * t * (-1.0 + t / 2.0),
+                t * (-2.0 + t * 1.5),
+            )
+        } else if t < 2.0 {
+            t -= 1.0;
+            (
+                1.0 / 6.0 + t * (-0.5 + t * (0.5 - t / 6.0)),
+                -0.5 + t * (1.0 - t / 2.0),
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        (k, if x < 0.0 { -d } else { d })
+    }
+
+    #[test]
+    fn bspln3_ref_select_form_is_the_branching_form() {
+        let check = |x: f32| {
+            let (k, d) = bspln3_ref_branching(x);
+            assert_eq!(Bspln3::k_ref(x).to_bits(), k.to_bits(), "k({x:e})");
+            assert_eq!(Bspln3::d1_ref(x).to_bits(), d.to_bits(), "d1({x:e})");
+        };
+        // Every float within 4096 ulps of each piece boundary, then a stride through
+        // [-3, 3], and the special values.
+        for b in [0.0f32, 1.0, 2.0, -1.0, -2.0] {
+            for d in 0..4096u32 {
+                check(f32::from_bits(b.to_bits().wrapping_add(d)));
+                check(f32::from_bits(b.to_bits().wrapping_sub(d)));
+            }
+        }
+        let mut x = -3.0f32;
+        while x < 3.0 {
+            check(x);
+            x += 1.0e-5;
+        }
+        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0] {
+            check(x);
+        }
+    }
 
     #[test]
     fn spec_13_3_values() {

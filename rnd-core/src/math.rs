@@ -18,10 +18,22 @@ pub fn sqrtf(x: f32) -> f32 {
 pub fn floor(x: f64) -> f64 {
     libm::floor(x)
 }
-/// Largest integer not above `x` (f32).
+/// Largest integer not above `x` (f32), exactly as `libm::floorf` (signed zeros, NaN
+/// and infinities included) but without a call: below 2^23 in magnitude truncation
+/// through i32 is exact and one correction makes it the floor; at or above 2^23 every
+/// f32 is already an integer.
 #[inline(always)]
 pub fn floorf(x: f32) -> f32 {
-    libm::floorf(x)
+    if x.abs() < 8_388_608.0 && x != 0.0 {
+        let t = x as i32 as f32;
+        if t > x {
+            t - 1.0
+        } else {
+            t
+        }
+    } else {
+        x
+    }
 }
 /// Smallest integer ≥ `x` (f64).
 #[inline(always)]
@@ -136,5 +148,51 @@ pub(crate) fn trunc_i64(y: f64) -> i64 {
     #[cfg(not(target_arch = "x86_64"))]
     {
         y as i64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floorf_is_libm_floorf_bit_for_bit() {
+        let check = |x: f32| {
+            assert_eq!(
+                floorf(x).to_bits(),
+                libm::floorf(x).to_bits(),
+                "floorf({x:e}) ({:#x})",
+                x.to_bits()
+            );
+        };
+        // Every float around the integers -300..300, the magnitudes near 2^23 and 2^31,
+        // zeros, infinities, NaN, subnormals; then a stride through all bit patterns.
+        for i in -300i32..=300 {
+            let b = (i as f32).to_bits();
+            for d in 0..64u32 {
+                check(f32::from_bits(b.wrapping_add(d)));
+                check(f32::from_bits(b.wrapping_sub(d)));
+            }
+        }
+        for m in [8_388_608.0f32, 16_777_216.0, 2_147_483_648.0, 1.0e-40, 0.5] {
+            let b = m.to_bits();
+            for d in 0..256u32 {
+                for s in [1.0f32, -1.0] {
+                    check(s * f32::from_bits(b - d));
+                    check(s * f32::from_bits(b + d));
+                }
+            }
+        }
+        for x in [0.0f32, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, f32::MAX] {
+            check(x);
+        }
+        let mut b = 0u32;
+        loop {
+            check(f32::from_bits(b));
+            match b.checked_add(65_521) {
+                Some(n) => b = n,
+                None => break,
+            }
+        }
     }
 }

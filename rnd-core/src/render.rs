@@ -14,7 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
-use crate::refarith::{self, RefCamera, RefIndex};
+use crate::refarith::{self, Lanes, RefCamera, RefIndex, LANES};
 use crate::skip::{SkipGrid, SkipPlan, COARSE_EMPTY, FINE_EMPTY};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
@@ -567,6 +567,13 @@ impl RenderSpec<'_> {
         out: &mut [f32],
         mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
     ) {
+        if trace.is_none() && !self.once && self.probe_counts_inside_only() {
+            return if self.need_grad {
+                self.cast_ref_lanes::<V, K, S, true>(convo, skip, hi, vi, out)
+            } else {
+                self.cast_ref_lanes::<V, K, S, false>(convo, skip, hi, vi, out)
+            };
+        }
         let p = &self.params;
         let vol = convo.volume();
         let over = p.blend == Blend::Over;
@@ -629,36 +636,10 @@ impl RenderSpec<'_> {
                 }
                 _ if !inside => false,
                 _ if empty => true,
-                Probe::Value => {
-                    pr[0] = value;
-                    true
-                }
-                Probe::GradVec => {
-                    pr[..3].copy_from_slice(&grad_w);
-                    true
-                }
-                Probe::GradMag => {
-                    pr[0] = math::sqrtf(
-                        grad_w[0] * grad_w[0] + grad_w[1] * grad_w[1] + grad_w[2] * grad_w[2],
-                    );
-                    true
-                }
-                Probe::Rgba | Probe::RgbaLit => {
-                    self.colour_ref(value, grad_w, &ray, pv[2], &mut pr)
-                }
+                _ => self.probe_ref(value, grad_w, &ray, pv[2], &mut pr),
             };
             if counted {
-                if over {
-                    let a = pr[3];
-                    for c in 0..3 {
-                        acc.acc[c] += transp * a * pr[c];
-                    }
-                    transp *= 1.0 - a;
-                    acc.acc[3] = 1.0 - transp;
-                    acc.count += 1;
-                } else {
-                    acc.add(&pr);
-                }
+                blend_ref(&mut acc, &mut transp, &pr);
             }
             if let Some(t) = trace.as_deref_mut() {
                 let wide = |a: [f32; 3]| a.map(f64::from);
@@ -679,6 +660,96 @@ impl RenderSpec<'_> {
                 });
             }
             if self.once || self.opaque_end(&mut acc) {
+                break;
+            }
+            k += 1;
+        }
+        acc.finish(p.outside, out);
+    }
+
+    /// The probes counted only inside (v, gv, gm, rgba, rgbalit) in reference
+    /// arithmetic, for value `v` and world gradient `g` at view depth `z`; whether the
+    /// sample is blended.
+    #[inline(always)]
+    fn probe_ref(
+        &self,
+        v: f32,
+        g: [f32; 3],
+        ray: &refarith::RefRay,
+        z: f32,
+        out: &mut [f32; 4],
+    ) -> bool {
+        match self.params.probe {
+            Probe::Value => out[0] = v,
+            Probe::GradVec => out[..3].copy_from_slice(&g),
+            Probe::GradMag => out[0] = math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]),
+            _ => return self.colour_ref(v, g, ray, z, out),
+        }
+        true
+    }
+
+    /// [`RenderSpec::cast_ref`] for the probes counted only inside, without a trace:
+    /// the samples whose support is inside (and not in an empty skip block) go through
+    /// the convolution [`Lanes`] at a time, then are probed and blended in order. Same
+    /// bits as the one-sample loop: each lane computes what `refarith::convolve`
+    /// does, and a sample in an empty block only adds to the count (its opacity is 0),
+    /// so it may be counted before the samples ahead of it are blended.
+    fn cast_ref_lanes<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+        &self,
+        convo: &Convo<'_, V, K, S>,
+        skip: Option<&SkipGrid>,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+    ) {
+        let p = &self.params;
+        let vol = convo.volume();
+        let skip = skip.filter(|_| p.blend == Blend::Over);
+        let cam = &self.ref_cam;
+        let ray = cam.ray(hi, vi, p.plane_sep as f32, p.unit_step as f32);
+        let wtoi = RefIndex::new(vol.itow());
+        let mut acc = Accum::new(p.blend, p.probe.length());
+        let mut transp = 1.0f32;
+        let kmax = self.plane_limit();
+        let mut lanes = Lanes::<S>::default();
+        let mut depth = [0.0f32; LANES];
+        let mut res = [[0.0f32; 4]; LANES];
+        let mut k: u32 = 0;
+        loop {
+            let kf = k as f32;
+            let pv: [f32; 3] = core::array::from_fn(|a| ray.start[a] + kf * ray.step[a]);
+            let end = k > 0 && (-pv[2] > cam.fcv || k > kmax);
+            if !end {
+                let pi = wtoi.point(cam.to_world(pv, 1.0));
+                let empty = skip.is_some_and(|sk| {
+                    refarith::support_start::<V, K, S>(vol, pi).is_some_and(|n| sk.empty_at(n))
+                });
+                if empty {
+                    blend_ref(&mut acc, &mut transp, &[0.0; 4]);
+                } else if lanes.push::<V, K>(vol, pi) {
+                    depth[lanes.len() - 1] = pv[2];
+                }
+            }
+            if lanes.is_full() || (end && !lanes.is_empty()) {
+                lanes.convolve::<V, K, G>(vol, &mut res);
+                for (r, &z) in res.iter().zip(&depth).take(lanes.len()) {
+                    let gw = if G {
+                        wtoi.gradient([r[1], r[2], r[3]])
+                    } else {
+                        [0.0; 3]
+                    };
+                    let mut pr = [0.0f32; 4];
+                    if self.probe_ref(r[0], gw, &ray, z, &mut pr) {
+                        blend_ref(&mut acc, &mut transp, &pr);
+                        if self.opaque_end(&mut acc) {
+                            acc.finish(p.outside, out);
+                            return;
+                        }
+                    }
+                }
+                lanes.clear();
+            }
+            if end {
                 break;
             }
             k += 1;
@@ -1058,6 +1129,23 @@ impl RenderSpec<'_> {
                 }
             }
         }
+    }
+}
+
+/// Blends probe `pr` in reference arithmetic: `over` keeps the transparency `transp`
+/// (C += T·α·rgb, T ·= 1 − α, opacity 1 − T), the other blends as [`Accum::add`].
+#[inline(always)]
+fn blend_ref(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]) {
+    if acc.blend == Blend::Over {
+        let a = pr[3];
+        for c in 0..3 {
+            acc.acc[c] += *transp * a * pr[c];
+        }
+        *transp *= 1.0 - a;
+        acc.acc[3] = 1.0 - *transp;
+        acc.count += 1;
+    } else {
+        acc.add(pr);
     }
 }
 
