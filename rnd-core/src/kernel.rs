@@ -639,10 +639,7 @@ mod tests {
     fn bspln3_ref_branching(x: f32) -> (f32, f32) {
         let mut t = x.abs();
         let (k, d) = if t < 1.0 {
-            (
-                2.0 / 3.0 + t * t * (-1.0 + t / 2.0),
-                t * (-2.0 + t * 1.5),
-            )
+            (2.0 / 3.0 + t * t * (-1.0 + t / 2.0), t * (-2.0 + t * 1.5))
         } else if t < 2.0 {
             t -= 1.0;
             (

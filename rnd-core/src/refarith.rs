@@ -329,6 +329,79 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
     })
 }
 
+/// [`LANES`] consecutive samples of one ray, placed in the volume: each lane computes
+/// exactly what the one-sample loop does for its sample (view position, world position,
+/// index position, then [`place`] per axis), side by side in vector registers.
+#[derive(Debug, Clone, Copy)]
+pub struct Block {
+    /// View depth (third view coordinate) of each sample.
+    pub z: [f32; LANES],
+    /// Whether each sample's kernel support is inside the volume.
+    pub inside: [bool; LANES],
+    /// First support index per axis and lane (a whole number where inside).
+    pub lo: [[f32; LANES]; 3],
+    /// Fractional offset per axis and lane (meaningful where inside).
+    pub al: [[f32; LANES]; 3],
+}
+
+impl Block {
+    /// Samples `k0 .. k0 + LANES` of `ray` through `cam`, into `vol` via `wtoi`.
+    #[inline(always)]
+    pub fn new<V: Voxel, K: Kernel<S>, const S: usize>(
+        cam: &RefCamera,
+        ray: &RefRay,
+        wtoi: &RefIndex,
+        vol: &Volume<'_, V>,
+        k0: u32,
+    ) -> Block {
+        let kf: [f32; LANES] = core::array::from_fn(|l| (k0 + l as u32) as f32);
+        let mut pv = [[0.0f32; LANES]; 3];
+        for a in 0..3 {
+            for l in 0..LANES {
+                pv[a][l] = ray.start[a] + kf[l] * ray.step[a];
+            }
+        }
+        let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
+        let mut pw = [[0.0f32; LANES]; 3];
+        for r in 0..3 {
+            for l in 0..LANES {
+                pw[r][l] = u[r] * pv[0][l] + v[r] * pv[1][l] + n[r] * pv[2][l] + fr[r] * 1.0;
+            }
+        }
+        let (m, t) = (&wtoi.m, &wtoi.t);
+        let sz = vol.sizes();
+        let mut b = Block {
+            z: pv[2],
+            inside: [true; LANES],
+            lo: [[0.0; LANES]; 3],
+            al: [[0.0; LANES]; 3],
+        };
+        for a in 0..3 {
+            let top = sz[a] as f32 - 1.0;
+            for l in 0..LANES {
+                let x = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
+                // `place`, lane by lane.
+                let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
+                let base = math::floorf(y);
+                let lo = base + K::LO as f32;
+                b.inside[l] &= (lo >= 0.0) & (lo + (S as f32 - 1.0) <= top);
+                b.lo[a][l] = lo;
+                b.al[a][l] = x - base;
+            }
+        }
+        b
+    }
+
+    /// Support start and fractions of lane `l` (inside).
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> ([i64; 3], [f32; 3]) {
+        (
+            core::array::from_fn(|a| self.lo[a][l] as i64),
+            core::array::from_fn(|a| self.al[a][l]),
+        )
+    }
+}
+
 /// Samples convolved together by [`Lanes::convolve`].
 pub const LANES: usize = 8;
 
@@ -375,6 +448,19 @@ impl<const S: usize> Lanes<S> {
     #[inline(always)]
     pub fn clear(&mut self) {
         self.len = 0;
+    }
+
+    /// Adds a sample already placed (support start `n`, inside `vol`; fractions `al`).
+    /// The batch must not be full.
+    #[inline(always)]
+    pub fn push_placed<V: Voxel>(&mut self, vol: &Volume<'_, V>, n: [i64; 3], al: [f32; 3]) {
+        let sz = vol.sizes();
+        let l = self.len;
+        self.base[l] = n[0] as usize + sz[0] * (n[1] as usize + sz[1] * n[2] as usize);
+        for a in 0..3 {
+            self.al[a][l] = al[a];
+        }
+        self.len += 1;
     }
 
     /// Adds the sample at index position `p` when its support is inside `vol` (true);
@@ -456,8 +542,13 @@ impl<const S: usize> Lanes<S> {
         let (s0, s01) = (sz[0], sz[0] * sz[1]);
         let data = vol.data();
         // Unused lanes read lane 0's neighbourhood (results ignored).
-        let base: [usize; LANES] =
-            core::array::from_fn(|l| if l < self.len { self.base[l] } else { self.base[0] });
+        let base: [usize; LANES] = core::array::from_fn(|l| {
+            if l < self.len {
+                self.base[l]
+            } else {
+                self.base[0]
+            }
+        });
         // Every support sample of every lane is in bounds (`push` placed the whole
         // support inside the volume).
         let last = (S - 1) * (1 + s0 + s01);

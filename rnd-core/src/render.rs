@@ -14,7 +14,7 @@ use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Ten
 use crate::light::{blinn_phong, Light, Phong, WorldLights};
 use crate::math;
 use crate::probe::Probe;
-use crate::refarith::{self, Lanes, RefCamera, RefIndex, LANES};
+use crate::refarith::{self, Block, Lanes, RefCamera, RefIndex, LANES};
 use crate::skip::{SkipGrid, SkipPlan, COARSE_EMPTY, FINE_EMPTY};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
@@ -714,45 +714,58 @@ impl RenderSpec<'_> {
         let mut lanes = Lanes::<S>::default();
         let mut depth = [0.0f32; LANES];
         let mut res = [[0.0f32; 4]; LANES];
-        let mut k: u32 = 0;
-        loop {
-            let kf = k as f32;
-            let pv: [f32; 3] = core::array::from_fn(|a| ray.start[a] + kf * ray.step[a]);
-            let end = k > 0 && (-pv[2] > cam.fcv || k > kmax);
-            if !end {
-                let pi = wtoi.point(cam.to_world(pv, 1.0));
-                let empty = skip.is_some_and(|sk| {
-                    refarith::support_start::<V, K, S>(vol, pi).is_some_and(|n| sk.empty_at(n))
-                });
-                if empty {
-                    blend_ref(&mut acc, &mut transp, &[0.0; 4]);
-                } else if lanes.push::<V, K>(vol, pi) {
-                    depth[lanes.len() - 1] = pv[2];
-                }
-            }
-            if lanes.is_full() || (end && !lanes.is_empty()) {
-                lanes.convolve::<V, K, G>(vol, &mut res);
-                for (r, &z) in res.iter().zip(&depth).take(lanes.len()) {
-                    let gw = if G {
-                        wtoi.gradient([r[1], r[2], r[3]])
-                    } else {
-                        [0.0; 3]
-                    };
-                    let mut pr = [0.0f32; 4];
-                    if self.probe_ref(r[0], gw, &ray, z, &mut pr) {
-                        blend_ref(&mut acc, &mut transp, &pr);
-                        if self.opaque_end(&mut acc) {
-                            acc.finish(p.outside, out);
-                            return;
-                        }
+        // Convolves, probes and blends the batch in order; true when the ray ends early.
+        let mut flush = |lanes: &mut Lanes<S>,
+                         depth: &[f32; LANES],
+                         acc: &mut Accum,
+                         transp: &mut f32|
+         -> bool {
+            lanes.convolve::<V, K, G>(vol, &mut res);
+            let n = lanes.len();
+            lanes.clear();
+            for (r, &z) in res.iter().zip(depth).take(n) {
+                let gw = if G {
+                    wtoi.gradient([r[1], r[2], r[3]])
+                } else {
+                    [0.0; 3]
+                };
+                let mut pr = [0.0f32; 4];
+                if self.probe_ref(r[0], gw, &ray, z, &mut pr) {
+                    blend_ref(acc, transp, &pr);
+                    if self.opaque_end(acc) {
+                        return true;
                     }
                 }
-                lanes.clear();
             }
-            if end {
-                break;
+            false
+        };
+        let mut k0: u32 = 0;
+        'ray: loop {
+            let b = Block::new::<V, K, S>(cam, &ray, &wtoi, vol, k0);
+            for l in 0..LANES {
+                let k = k0 + l as u32;
+                if k > 0 && (-b.z[l] > cam.fcv || k > kmax) {
+                    break 'ray;
+                }
+                if !b.inside[l] {
+                    continue;
+                }
+                let (n, al) = b.lane(l);
+                if skip.is_some_and(|sk| sk.empty_at(n)) {
+                    blend_ref(&mut acc, &mut transp, &[0.0; 4]);
+                    continue;
+                }
+                depth[lanes.len()] = b.z[l];
+                lanes.push_placed(vol, n, al);
+                if lanes.is_full() && flush(&mut lanes, &depth, &mut acc, &mut transp) {
+                    acc.finish(p.outside, out);
+                    return;
+                }
             }
-            k += 1;
+            k0 += LANES as u32;
+        }
+        if !lanes.is_empty() {
+            flush(&mut lanes, &depth, &mut acc, &mut transp);
         }
         acc.finish(p.outside, out);
     }
