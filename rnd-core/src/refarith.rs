@@ -584,7 +584,41 @@ impl<const S: usize> Lanes<S> {
 /// where `libm::powf` differs on about 10%.
 #[inline]
 pub fn powf(x: f32, y: f32) -> f32 {
-    math::pow(x as f64, y as f64) as f32
+    match powf_whole(x, y) {
+        Some(r) => r,
+        None => math::pow(x as f64, y as f64) as f32,
+    }
+}
+
+/// [`powf`] without the library `pow`, where that is provably the same f32: for a whole
+/// exponent y in [1, 2^16] and x in (0, 1] (specular powers), x^y by repeated squaring
+/// in f64 is within (y + 33)·2^-53 of the exact power (each squaring doubles the
+/// relative error so far and adds 2^-53; the multiplications into the result add 2^-53
+/// each), the library's `pow` within 2 ulps. When everything within a wider bound
+/// rounds to one f32, both do; otherwise (near a rounding boundary, or a result close
+/// to the f64 underflow) None.
+#[inline]
+fn powf_whole(x: f32, y: f32) -> Option<f32> {
+    if !(x > 0.0 && x <= 1.0 && (1.0..=65_536.0).contains(&y) && y == math::floorf(y)) {
+        return None;
+    }
+    let (mut n, mut b, mut r) = (y as u32, x as f64, 1.0f64);
+    loop {
+        if n & 1 == 1 {
+            r *= b;
+        }
+        n >>= 1;
+        if n == 0 {
+            break;
+        }
+        b *= b;
+    }
+    if r < 1e-290 {
+        return None;
+    }
+    let e = (y as f64 + 64.0) * f64::EPSILON;
+    let (lo, hi) = ((r * (1.0 - e)) as f32, (r * (1.0 + e)) as f32);
+    (lo == hi).then_some(lo)
 }
 
 /// Opacity `a` clamped to [0, 1] and corrected for `ex` unit steps: 1 − (1 − a)^ex.
@@ -780,5 +814,44 @@ mod lane_tests {
             all_kernels(&s, sz);
         }
         crate::avx::set_avx2(true);
+    }
+
+    /// The repeated-squaring path of `powf` gives the library `pow`'s f32 bits.
+    #[test]
+    fn whole_powers_are_the_library_pow() {
+        let mut rng = Lcg(99);
+        let mut fast = 0;
+        let ys = (1..=200).chain([255, 256, 500, 1000, 4096, 65_535, 65_536]);
+        for y in ys {
+            let y = y as f32;
+            for i in 0..4000 {
+                // Uniform in (0, 1], near 1, and spread over many binades.
+                let x = match i % 3 {
+                    0 => 1.0 - rng.next(),
+                    1 => 1.0 - rng.next() * 1e-3,
+                    _ => (2.0f32).powi(-(rng.next() * 60.0) as i32) * (1.0 - rng.next() / 2.0),
+                };
+                let want = math::pow(x as f64, y as f64) as f32;
+                assert_eq!(powf(x, y).to_bits(), want.to_bits(), "{x:e}^{y}");
+                if i % 3 != 2 {
+                    fast += powf_whole(x, y).is_some() as usize;
+                }
+            }
+        }
+        for (x, y) in [
+            (1.0f32, 7.0f32),
+            (0.0, 3.0),
+            (0.5, 0.5),
+            (1e-45, 2.0),
+            (0.9, 70_000.0),
+        ] {
+            assert_eq!(
+                powf(x, y).to_bits(),
+                (math::pow(x as f64, y as f64) as f32).to_bits()
+            );
+        }
+        // Nearly every power that does not underflow takes the fast path.
+        let tried = 207 * 4000 * 2 / 3;
+        assert!(fast > tried * 97 / 100, "{fast} of {tried}");
     }
 }

@@ -590,6 +590,7 @@ impl RenderSpec<'_> {
         let mut acc = Accum::new(p.blend, p.probe.length());
         // `over`: premultiplied colour in acc[..3] and the transparency T.
         let mut transp = 1.0f32;
+        let mut memo: AlphaMemo = None;
         let kmax = self.plane_limit();
         let mut k: u32 = 0;
         loop {
@@ -636,7 +637,7 @@ impl RenderSpec<'_> {
                 }
                 _ if !inside => false,
                 _ if empty => true,
-                _ => self.probe_ref(value, grad_w, &ray, pv[2], &mut pr),
+                _ => self.probe_ref(value, grad_w, &ray, pv[2], &mut memo, &mut pr),
             };
             if counted {
                 blend_ref(&mut acc, &mut transp, &pr);
@@ -677,13 +678,14 @@ impl RenderSpec<'_> {
         g: [f32; 3],
         ray: &refarith::RefRay,
         z: f32,
+        memo: &mut AlphaMemo,
         out: &mut [f32; 4],
     ) -> bool {
         match self.params.probe {
             Probe::Value => out[0] = v,
             Probe::GradVec => out[..3].copy_from_slice(&g),
             Probe::GradMag => out[0] = math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]),
-            _ => return self.colour_ref(v, g, ray, z, out),
+            _ => return self.colour_ref(v, g, ray, z, memo, out),
         }
         true
     }
@@ -715,10 +717,12 @@ impl RenderSpec<'_> {
         let mut depth = [0.0f32; LANES];
         let mut res = [[0.0f32; 4]; LANES];
         // Convolves, probes and blends the batch in order; true when the ray ends early.
+        let mut memo: AlphaMemo = None;
         let mut flush = |lanes: &mut Lanes<S>,
                          depth: &[f32; LANES],
                          acc: &mut Accum,
-                         transp: &mut f32|
+                         transp: &mut f32,
+                         memo: &mut AlphaMemo|
          -> bool {
             lanes.convolve::<V, K, G>(vol, &mut res);
             let n = lanes.len();
@@ -730,7 +734,7 @@ impl RenderSpec<'_> {
                     [0.0; 3]
                 };
                 let mut pr = [0.0f32; 4];
-                if self.probe_ref(r[0], gw, &ray, z, &mut pr) {
+                if self.probe_ref(r[0], gw, &ray, z, memo, &mut pr) {
                     blend_ref(acc, transp, &pr);
                     if self.opaque_end(acc) {
                         return true;
@@ -757,7 +761,7 @@ impl RenderSpec<'_> {
                 }
                 depth[lanes.len()] = b.z[l];
                 lanes.push_placed(vol, n, al);
-                if lanes.is_full() && flush(&mut lanes, &depth, &mut acc, &mut transp) {
+                if lanes.is_full() && flush(&mut lanes, &depth, &mut acc, &mut transp, &mut memo) {
                     acc.finish(p.outside, out);
                     return;
                 }
@@ -765,7 +769,7 @@ impl RenderSpec<'_> {
             k0 += LANES as u32;
         }
         if !lanes.is_empty() {
-            flush(&mut lanes, &depth, &mut acc, &mut transp);
+            flush(&mut lanes, &depth, &mut acc, &mut transp, &mut memo);
         }
         acc.finish(p.outside, out);
     }
@@ -779,6 +783,7 @@ impl RenderSpec<'_> {
         g: [f32; 3],
         ray: &refarith::RefRay,
         z: f32,
+        memo: &mut AlphaMemo,
         out: &mut [f32; 4],
     ) -> bool {
         let p = &self.params;
@@ -788,7 +793,15 @@ impl RenderSpec<'_> {
         if let Some(lev) = self.levoy {
             a *= lev.opacity(v, math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]));
         }
-        let a = refarith::correct_alpha(a, ray.alpha_exp);
+        // The ray's exponent is fixed, so the last result serves equal opacities.
+        let a = match *memo {
+            Some((bits, r)) if bits == a.to_bits() => r,
+            _ => {
+                let r = refarith::correct_alpha(a, ray.alpha_exp);
+                *memo = Some((a.to_bits(), r));
+                r
+            }
+        };
         let mut rgb = [e[0], e[1], e[2]];
         if a != 0.0 && p.probe == Probe::RgbaLit {
             rgb = refarith::blinn_phong(&p.phong, &self.ref_lights, rgb, g, ray.to_eye);
@@ -1144,6 +1157,9 @@ impl RenderSpec<'_> {
         }
     }
 }
+
+/// The last opacity corrected on a ray (its bits) and the result, in reference mode.
+type AlphaMemo = Option<(u32, f32)>;
 
 /// Blends probe `pr` in reference arithmetic: `over` keeps the transparency `transp`
 /// (C += T·α·rgb, T ·= 1 − α, opacity 1 − T), the other blends as [`Accum::add`].
