@@ -1148,6 +1148,24 @@ fn go_ref_reproduces_cube_rgb() {
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f32, f32::max);
     assert!(worst <= 2.5e-6, "go -ref: max error {worst}");
+    // Without the AVX2 paths (SSE2 only): the same bytes.
+    let mut sse = args.clone();
+    sse.extend(["-o", "cube-rgb-sse.nrrd"]);
+    let o = rendr()
+        .current_dir(&d)
+        .env("RND_AVX2", "0")
+        .args(&sse)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, plain) = read_floats(&d.join("cube-rgb-sse.nrrd"));
+    assert!(
+        plain
+            .iter()
+            .zip(&got)
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "go -ref differs without AVX2"
+    );
 
     // SPEC §13.5 pixel (176, 19) traced: the last line is the pixel's value.
     let mut trace = args.clone();

@@ -506,7 +506,8 @@ impl<const S: usize> Lanes<S> {
     }
 
     /// [`Lanes::convolve`] compiled for AVX2 (eight lanes in one register; the same
-    /// operations, no fused multiply-add).
+    /// operations, no fused multiply-add). Support 4 reads each lane's rows of four
+    /// voxels with one load and transposes them into lanes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn convolve_avx2<V: Voxel, K: Kernel<S>, const G: bool>(
@@ -514,7 +515,14 @@ impl<const S: usize> Lanes<S> {
         vol: &Volume<'_, V>,
         out: &mut [[f32; 4]; LANES],
     ) {
-        self.convolve_lanes::<V, K, G>(vol, out);
+        let (w, dw, base) = self.setup::<V, K, G>(vol);
+        let sums = if S == 4 {
+            // SAFETY: AVX2 is enabled here; `setup` checked every lane's support.
+            unsafe { sums4_avx2::<V, S, G>(vol, &base, &w, &dw) }
+        } else {
+            sums_lanes::<V, S, G>(vol, &base, &w, &dw)
+        };
+        store(&sums, out);
     }
 
     #[inline(always)]
@@ -523,7 +531,23 @@ impl<const S: usize> Lanes<S> {
         vol: &Volume<'_, V>,
         out: &mut [[f32; 4]; LANES],
     ) {
-        // Weights lane by lane, as `convolve` computes them.
+        let (w, dw, base) = self.setup::<V, K, G>(vol);
+        store(&sums_lanes::<V, S, G>(vol, &base, &w, &dw), out);
+    }
+
+    /// Each lane's weights (and derivative weights with `G`), as `convolve` computes
+    /// them, and first support sample (unused lanes repeat lane 0's); checks that
+    /// every lane's whole support is in the data.
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn setup<V: Voxel, K: Kernel<S>, const G: bool>(
+        &self,
+        vol: &Volume<'_, V>,
+    ) -> (
+        [[[f32; LANES]; S]; 3],
+        [[[f32; LANES]; S]; 3],
+        [usize; LANES],
+    ) {
         let mut w = [[[0.0f32; LANES]; S]; 3];
         let mut dw = [[[0.0f32; LANES]; S]; 3];
         for a in 0..3 {
@@ -540,8 +564,6 @@ impl<const S: usize> Lanes<S> {
         }
         let sz = vol.sizes();
         let (s0, s01) = (sz[0], sz[0] * sz[1]);
-        let data = vol.data();
-        // Unused lanes read lane 0's neighbourhood (results ignored).
         let base: [usize; LANES] = core::array::from_fn(|l| {
             if l < self.len {
                 self.base[l]
@@ -549,33 +571,117 @@ impl<const S: usize> Lanes<S> {
                 self.base[0]
             }
         });
-        // Every support sample of every lane is in bounds (`push` placed the whole
-        // support inside the volume).
+        // `push` placed every support inside the volume; the sums rely on it.
         let last = (S - 1) * (1 + s0 + s01);
-        assert!(self.len > 0 && base.iter().all(|&b| b + last < data.len()));
-        let mut val = [0.0f32; LANES];
-        let mut g = [[0.0f32; LANES]; 3];
-        for k in 0..S {
-            for j in 0..S {
-                for i in 0..S {
-                    let o = i + j * s0 + k * s01;
-                    for l in 0..LANES {
-                        // SAFETY: base[l] + o <= base[l] + last < data.len() (asserted).
-                        let x = unsafe { data.get_unchecked(base[l] + o) }.to_f32();
-                        let xw0 = x * w[0][i][l];
-                        val[l] += xw0 * w[1][j][l] * w[2][k][l];
-                        if G {
-                            g[0][l] += x * dw[0][i][l] * w[1][j][l] * w[2][k][l];
-                            g[1][l] += xw0 * dw[1][j][l] * w[2][k][l];
-                            g[2][l] += xw0 * w[1][j][l] * dw[2][k][l];
-                        }
+        let n = vol.data().len();
+        assert!(self.len > 0 && base.iter().all(|&b| b + last < n));
+        (w, dw, base)
+    }
+}
+
+/// The lanes' running sums (value, then the gradient's three with `G`), each term
+/// ((v·w₀)·w₁)·w₂ with one factor a derivative weight for the gradient, z slowest and x
+/// fastest: `convolve`'s operations, lane by lane.
+#[inline(always)]
+fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
+    vol: &Volume<'_, V>,
+    base: &[usize; LANES],
+    w: &[[[f32; LANES]; S]; 3],
+    dw: &[[[f32; LANES]; S]; 3],
+) -> [[f32; LANES]; 4] {
+    let sz = vol.sizes();
+    let (s0, s01) = (sz[0], sz[0] * sz[1]);
+    let data = vol.data();
+    let mut r = [[0.0f32; LANES]; 4];
+    for k in 0..S {
+        for j in 0..S {
+            for i in 0..S {
+                let o = i + j * s0 + k * s01;
+                for l in 0..LANES {
+                    // SAFETY: base[l] + o lies in the support `setup` checked.
+                    let x = unsafe { data.get_unchecked(base[l] + o) }.to_f32();
+                    let xw0 = x * w[0][i][l];
+                    r[0][l] += xw0 * w[1][j][l] * w[2][k][l];
+                    if G {
+                        r[1][l] += x * dw[0][i][l] * w[1][j][l] * w[2][k][l];
+                        r[2][l] += xw0 * dw[1][j][l] * w[2][k][l];
+                        r[3][l] += xw0 * w[1][j][l] * dw[2][k][l];
                     }
                 }
             }
         }
-        for l in 0..LANES {
-            out[l] = [val[l], g[0][l], g[1][l], g[2][l]];
+    }
+    r
+}
+
+/// [`sums_lanes`] for support 4 with AVX2: each lane's row of four voxels is one load
+/// (two lanes per register, see [`Voxel::load4x2`]), a 4 × 4 transpose in each 128-bit
+/// half turns rows into lanes, and the arithmetic is the same per lane.
+///
+/// # Safety
+/// The CPU must support AVX2, `S` must be 4, and every lane's support (from `base`)
+/// must lie in the volume's data.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
+    vol: &Volume<'_, V>,
+    base: &[usize; LANES],
+    w: &[[[f32; LANES]; S]; 3],
+    dw: &[[[f32; LANES]; S]; 3],
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    assert!(S == 4 && LANES == 8);
+    let sz = vol.sizes();
+    let (s0, s01) = (sz[0], sz[0] * sz[1]);
+    let ptr = vol.data().as_ptr();
+    let ld = |v: &[f32; LANES]| {
+        // SAFETY: eight readable floats.
+        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    };
+    let mut val = _mm256_setzero_ps();
+    let (mut g0, mut g1, mut g2) = (val, val, val);
+    for k in 0..S {
+        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+        for j in 0..S {
+            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
+            let o = j * s0 + k * s01;
+            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
+            let row =
+                |l: usize| unsafe { V::load4x2([ptr.add(base[l] + o), ptr.add(base[l + 4] + o)]) };
+            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+            let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
+            let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
+            let x = [
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xEE>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+                _mm256_shuffle_ps::<0xEE>(t1, t3),
+            ];
+            for i in 0..S {
+                let xw0 = _mm256_mul_ps(x[i], ld(&w[0][i]));
+                val = _mm256_add_ps(val, _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
+                if G {
+                    let xd0 = _mm256_mul_ps(x[i], ld(&dw[0][i]));
+                    g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
+                    g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
+                    g2 = _mm256_add_ps(g2, _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
+                }
+            }
         }
+    }
+    let mut r = [[0.0f32; LANES]; 4];
+    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
+        // SAFETY: eight writable floats.
+        unsafe { _mm256_storeu_ps(dst.as_mut_ptr(), v) };
+    }
+    r
+}
+
+/// Lane-major sums into per-sample results.
+#[inline(always)]
+fn store(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
+    for l in 0..LANES {
+        out[l] = [r[0][l], r[1][l], r[2][l], r[3][l]];
     }
 }
 
