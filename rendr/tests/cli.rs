@@ -1188,6 +1188,68 @@ fn go_ref_reproduces_cube_rgb() {
     }
 }
 
+/// `-ref` compares index bounds in f32, exact only below 2^24: a longer axis is refused
+/// with a clear message (never an out-of-bounds read), and renders without `-ref`.
+#[test]
+fn ref_refuses_axes_beyond_f32() {
+    let d = rnd_tests::tmpdir("refaxis");
+    ok(
+        &d,
+        &[
+            "sdg",
+            "-w",
+            "3",
+            "-sz",
+            "16777216",
+            "1",
+            "1",
+            "-t",
+            "short",
+            "-o",
+            "long.nrrd",
+        ],
+    );
+    let go = [
+        "go",
+        "-i",
+        "long.nrrd",
+        "-fr",
+        "0",
+        "0",
+        "5",
+        "-at",
+        "0",
+        "0",
+        "0",
+        "-up",
+        "0",
+        "1",
+        "0",
+        "-nc",
+        "-1",
+        "-fc",
+        "1",
+        "-fov",
+        "10",
+        "-k",
+        "tent",
+        "-sz",
+        "4",
+        "4",
+        "-o",
+        "x.nrrd",
+    ];
+    let mut with_ref = go.to_vec();
+    with_ref.push("-ref");
+    fails(
+        &d,
+        &with_ref,
+        "-ref: long.nrrd: an axis of 16777216 samples",
+        Some("x.nrrd"),
+    );
+    ok(&d, &go);
+}
+
 #[test]
 fn readme_default_render() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");

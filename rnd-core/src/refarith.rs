@@ -331,6 +331,11 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
     })
 }
 
+/// The longest volume axis (in samples) the reference arithmetic handles: its index
+/// bounds are compared in f32, exact only below 2^24. Longer axes must not be rendered
+/// with `params.reference` (rendr refuses them; the sums assert it).
+pub const MAX_AXIS: usize = (1 << 24) - 1;
+
 /// [`LANES`] consecutive samples of one ray, placed in the volume: each lane computes
 /// exactly what the one-sample loop does for its sample (view position, world position,
 /// index position, then the support placement per axis, as [`support_start`]), side by

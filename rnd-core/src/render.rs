@@ -59,7 +59,8 @@ pub struct RenderParams {
     pub fast_loop: bool,
     /// Compute in the course reference program's f32 arithmetic (`-ref`,
     /// [`crate::refarith`]) instead of the default engine (f64 geometry, reordered
-    /// sums): reproduces the reference's images, slower.
+    /// sums): reproduces the reference's images, slower. For volumes of at most
+    /// [`refarith::MAX_AXIS`] samples per axis.
     pub reference: bool,
 }
 

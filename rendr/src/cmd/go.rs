@@ -342,6 +342,20 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         lights.as_deref().unwrap_or(&[]),
     )?;
     let vol = cache.get(&input, threads)?;
+    if spec.params.reference {
+        if let Some(n) = vol
+            .sizes
+            .iter()
+            .find(|&&n| n > rnd_core::refarith::MAX_AXIS)
+        {
+            bail!(
+                "-ref: {}: an axis of {n} samples is beyond exact f32 index arithmetic \
+                 (at most {}); render without -ref",
+                input.display(),
+                rnd_core::refarith::MAX_AXIS
+            );
+        }
+    }
     if debug {
         let [w, h] = spec.size();
         if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {
