@@ -1,7 +1,8 @@
 //! Fuzzes a tiny render: camera, LUT, probe, blend, kernel and parameters come from the
 //! input. Validation may refuse them; what it accepts must render without panicking and
 //! give finite output unless NaN was asked for (outside value), and the accelerated loop
-//! must give exactly the plain loop's image.
+//! must give exactly the plain loop's image. The same for the reference arithmetic
+//! (`-ref`): finite output, and its batched loop gives the one-sample loop's image.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -11,7 +12,10 @@ use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, Phong};
 use rnd_core::probe::Probe;
-use rnd_core::render::{render, AnyVolume, RenderParams, RenderSpec};
+use rnd_core::convo::Convo;
+use rnd_core::kernel::Kernel;
+use rnd_core::render::{dispatch, render, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::voxel::Voxel;
 use rnd_core::txf::{Levoy, Lut};
 use rnd_core::volume::Volume;
 
@@ -30,6 +34,23 @@ impl Bytes<'_> {
         let v = f64::from_le_bytes(a);
         // Mostly moderate numbers, sometimes anything (NaN, inf, huge).
         if self.u8() % 8 == 0 { v } else { (v.to_bits() % 20001) as f64 / 1000.0 - 10.0 }
+    }
+}
+
+/// Every pixel through `RenderSpec::cast` with a (no-op) trace: the one-sample loops.
+struct Traced<'s, 'a>(&'s RenderSpec<'a>);
+impl ConvoTask for Traced<'_, '_> {
+    type Output = Vec<f32>;
+    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
+        let mut convo = Convo::<V, K, S>::new(vol);
+        let [w, h] = self.0.size();
+        let len = self.0.params.probe.length();
+        let mut img = vec![0.0f32; (w * h) as usize * len];
+        for (px, out) in img.chunks_mut(len).enumerate() {
+            let mut ignore = |_: &SampleInfo| {};
+            self.0.cast(&mut convo, px as u32 % w, px as u32 / w, out, Some(&mut ignore));
+        }
+        img
     }
 }
 
@@ -83,5 +104,19 @@ fuzz_target!(|data: &[u8]| {
     assert!(
         img.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
         "fast {img:?} vs plain {plain:?} for {p:?} {kernel}"
+    );
+    // Reference arithmetic: may refuse what f32 cannot hold; otherwise finite output,
+    // and the batched loop equals the one-sample loop.
+    let mut r = p.clone();
+    r.reference = true;
+    let Ok(ref_spec) = RenderSpec::new(r, lut.as_ref(), lev.as_ref(), &lights) else { return };
+    let lanes = render(&ref_spec, AnyVolume::F32(vol), kernel);
+    if p.outside.is_finite() {
+        assert!(lanes.iter().all(|v| !v.is_nan()), "-ref: NaN output for {p:?}");
+    }
+    let one = dispatch(AnyVolume::F32(vol), kernel, Traced(&ref_spec));
+    assert!(
+        lanes.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()),
+        "-ref lanes {lanes:?} vs one-sample {one:?} for {p:?} {kernel}"
     );
 });

@@ -1248,6 +1248,50 @@ fn ref_refuses_axes_beyond_f32() {
         Some("x.nrrd"),
     );
     ok(&d, &go);
+    // A camera or step that exists in f64 but not in f32.
+    ok(
+        &d,
+        &["sdg", "-w", "2", "-sz", "8", "8", "8", "-o", "small.nrrd"],
+    );
+    let far = [
+        "go",
+        "-i",
+        "small.nrrd",
+        "-fr",
+        "0",
+        "0",
+        "1e39",
+        "-at",
+        "0",
+        "0",
+        "0",
+        "-up",
+        "0",
+        "1",
+        "0",
+        "-nc",
+        "-1e38",
+        "-fc",
+        "1e38",
+        "-fov",
+        "10",
+        "-k",
+        "tent",
+        "-sz",
+        "4",
+        "4",
+        "-s",
+        "1e37",
+        "-us",
+        "1e37",
+        "-ref",
+        "-o",
+        "y.nrrd",
+    ];
+    fails(&d, &far, "-ref: the camera", Some("y.nrrd"));
+    let mut tiny = go.to_vec();
+    tiny.extend(["-i", "small.nrrd", "-us", "1e-60", "-ref", "-o", "z.nrrd"]);
+    fails(&d, &tiny, "-ref: -us 1e-60", Some("z.nrrd"));
 }
 
 #[test]

@@ -176,6 +176,20 @@ impl RefCamera {
         }
     }
 
+    /// Whether every number of the frame is finite and the eye distance positive: a
+    /// camera valid in f64 can overflow (or underflow) in f32.
+    pub fn is_finite(&self) -> bool {
+        let v3 = |a: V3| a.iter().all(|x| x.is_finite());
+        v3(self.u)
+            && v3(self.v)
+            && v3(self.n)
+            && v3(self.fr)
+            && [self.d, self.ncv, self.fcv, self.hght, self.wdth]
+                .iter()
+                .all(|x| x.is_finite())
+            && self.d > 0.0
+    }
+
     /// Lights as world-space (colour, unit direction): view-space directions mapped by
     /// the view-to-world rotation, then normalized the reference's way.
     pub fn lights(&self, lights: &[Light]) -> Vec<(V3, V3)> {

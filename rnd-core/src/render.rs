@@ -197,6 +197,21 @@ impl<'a> RenderSpec<'a> {
         let channels = params.probe.length() + usize::from(params.time);
         let ref_cam = RefCamera::new(&params.camera);
         let ref_lights = if params.reference {
+            if !ref_cam.is_finite() {
+                return Err(rerr(alloc::format!(
+                    "-ref: the camera (look-from {:?}, look-at {:?}) is beyond f32 arithmetic",
+                    params.camera.fr,
+                    params.camera.at
+                )));
+            }
+            let f32_ok = |x: f64| (x as f32).is_finite() && (x == 0.0 || x as f32 > 0.0);
+            if !f32_ok(params.unit_step) || !f32_ok(params.plane_sep) {
+                return Err(rerr(alloc::format!(
+                    "-ref: -us {:?} / -s {:?} are beyond f32 arithmetic",
+                    params.unit_step,
+                    params.plane_sep
+                )));
+            }
             ref_cam.lights(lights)
         } else {
             Vec::new()
