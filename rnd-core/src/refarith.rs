@@ -176,8 +176,9 @@ impl RefCamera {
         }
     }
 
-    /// Whether every number of the frame is finite and the eye distance positive: a
-    /// camera valid in f64 can overflow (or underflow) in f32.
+    /// Whether every number of the frame is finite, the eye distance positive and the
+    /// far plane beyond the near one: a camera valid in f64 can overflow, underflow or
+    /// lose its planes' separation in f32.
     pub fn is_finite(&self) -> bool {
         let v3 = |a: V3| a.iter().all(|x| x.is_finite());
         v3(self.u)
@@ -188,6 +189,7 @@ impl RefCamera {
                 .iter()
                 .all(|x| x.is_finite())
             && self.d > 0.0
+            && self.fcv > self.ncv
     }
 
     /// Lights as world-space (colour, unit direction): view-space directions mapped by

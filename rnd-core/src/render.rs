@@ -199,9 +199,13 @@ impl<'a> RenderSpec<'a> {
         let ref_lights = if params.reference {
             if !ref_cam.is_finite() {
                 return Err(rerr(alloc::format!(
-                    "-ref: the camera (look-from {:?}, look-at {:?}) is beyond f32 arithmetic",
+                    "-ref: the camera (look-from {:?}, look-at {:?}) is beyond f32 \
+                     arithmetic (there: eye distance {}, near plane {}, far plane {})",
                     params.camera.fr,
-                    params.camera.at
+                    params.camera.at,
+                    ref_cam.d,
+                    ref_cam.ncv,
+                    ref_cam.fcv
                 )));
             }
             let f32_ok = |x: f64| (x as f32).is_finite() && (x == 0.0 || x as f32 > 0.0);

@@ -655,8 +655,17 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     // At 1e17 the near and far planes themselves collapse: refused.
     p.camera.fr = [0.0, 0.0, 1e17];
     p.plane_sep = 0.01;
-    let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
+    let e = RenderSpec::new(p.clone(), None, None, &[]).unwrap_err();
     assert!(e.msg.contains("coincide"), "{e}");
+    // Fuzz regression (-ref): at 5e15 the planes are distinct in f64 but not in f32,
+    // where the depth cue divided 0 by 0. The reference arithmetic refuses the camera.
+    p.camera.fr = [0.0, 0.0, 5e15];
+    p.dcn = [0.6; 3];
+    p.dcf = [0.0; 3];
+    assert!(RenderSpec::new(p.clone(), None, None, &[]).is_ok());
+    p.reference = true;
+    let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
+    assert!(e.msg.contains("-ref: the camera"), "{e}");
 }
 
 /// Fuzz regression: a negative specular exponent with ks = 0 gave 0 · ∞ = NaN; negative
