@@ -2,8 +2,10 @@
 # rendr vs Teem, same machine, same run: samples per second of teem-mrender and
 # rendr go (value/max and gradmag/max; tent, bspln3, c4hexic), frame time of
 # teem-miter and rendr go for an over + lit colour rendering, with 1 and 2 threads,
-# plus how rendr's cost grows with pixels and samples per ray.
-# Usage: bench/run.sh [RESULTS.md]   (prints markdown; needs teem-apps and ../shared)
+# plus how rendr's cost grows with pixels and samples per ray, and the reference
+# arithmetic (go -ref) against both.
+# Usage: bench/run.sh   (prints markdown; needs teem-apps and ../shared)
+#        ONLY=ref bench/run.sh   (only the -ref section)
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 (cd "$top" && cargo build --release -q -p rendr)
@@ -64,6 +66,7 @@ echo
 echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"
 echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
 echo
+if [ "${ONLY:-all}" = all ]; then
 echo "## Samples per second, teem-mrender vs rendr go (orthographic, ${SZ}x${SZ}, $N samples per ray = $samples samples; whole commands, best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
 echo
 echo "| volume | kernel | query | threads | Teem s | rendr s | Teem Msamples/s | rendr Msamples/s | ratio |"
@@ -179,3 +182,44 @@ for cfg in "128 1" "256 1" "512 1" "256 2" "256 0.5" "256 0.25"; do
   done
   awk -v a="$1" -v s="$2" -v n="$ns" -v t="$rt" -v r="$rr" 'BEGIN { printf "| %dx%d | %s | %d | %.3f | %.3f | %.2f |\n", a, a, s, n, t, r, r / n * 1e9 }'
 done
+fi
+
+echo
+echo "## Reference arithmetic: rendr go -ref vs Teem and the default engine (bspln3, 1 thread; best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
+echo
+echo "| volume | rendering | Teem s | rendr s | rendr -ref s | Teem / -ref | -ref / default |"
+echo "|---|---|---|---|---|---|---|"
+if [ "${ONLY:-all}" != all ]; then
+  printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
+  printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
+  "$R" lgen -i c.txt a.txt -mm 0 2000 -l 1024 -o lut.nrrd
+  teem-unu axinfo -i lut.nrrd -a 0 -l RGBA | teem-unu axinfo -a 1 -l "gage(scalar:v)" -o txf.nrrd
+  printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
+fi
+for v in ct syn; do
+  at=(${AT[$v]})
+  fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+  for q in v gm; do
+    mr="teem-mrender -i ${VOL[$v]} -k scalar -fr $fr -at ${AT[$v]} -up 0 0 1 -or -ar \
+        -dn -130 -di 0 -df 130 -ur -130 130 -vr -130 130 -is $SZ $SZ \
+        -k00 bspln3 -k11 bspln3d -k22 zero -q $q -m max -step $STEP -nt 1 -o t.nrrd"
+    go="$R go -i ${VOL[$v]} -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
+        -fov $fov -sz $SZ $SZ -k bspln3 -p $q -b max -s $STEP -nt 1 -sp false -o r.nrrd"
+    read -r tt rt < <(pair "$mr" "$go")
+    read -r _ ft < <(pair "$mr" "$go -ref")
+    awk -v v="$v" -v q="$q" -v tt="$tt" -v rt="$rt" -v ft="$ft" 'BEGIN {
+      printf "| %s | %s/max | %.3f | %.3f | %.3f | %.1fx | %.2fx |\n", v, q, tt, rt, ft, tt / ft, ft / rt }'
+  done
+done
+at=(${AT[ct]})
+fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+mi="teem-miter -i $CT -txf txf.nrrd -fr $fr -at ${AT[ct]} -up 0 0 1 -or -ar -dn -130 -di 0 -df 130 \
+    -ur -130 130 -vr -130 130 -is $SZ $SZ -k00 bspln3 -k11 bspln3d -k22 zero -step $STEP -ref $STEP \
+    -n1 0.99 -ld 0 0 1 -ads 0.2 0.8 0.1 -sp 150 -nt 1 -o t.nrrd"
+go="$R go -i $CT -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov $fov \
+    -sz $SZ $SZ -k bspln3 -p rgbalit -b over -s $STEP -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt \
+    -ph 0.2 0.8 0.1 150 -nt 1 -sp false -o r.nrrd"
+read -r tt rt < <(REPS=6 pair "$mi" "$go")
+read -r _ ft < <(REPS=6 pair "$mi" "$go -ref")
+awk -v tt="$tt" -v rt="$rt" -v ft="$ft" 'BEGIN {
+  printf "| ct | rgbalit/over (teem-miter) | %.3f | %.3f | %.3f | %.1fx | %.2fx |\n", tt, rt, ft, tt / ft, ft / rt }'
