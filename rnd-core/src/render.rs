@@ -216,7 +216,18 @@ impl<'a> RenderSpec<'a> {
                     params.plane_sep
                 )));
             }
-            ref_cam.lights(lights)
+            let rl = ref_cam.lights(lights);
+            if let Some(i) = rl
+                .iter()
+                .position(|(c, d)| !c.iter().chain(d.iter()).all(|x| x.is_finite()))
+            {
+                return Err(rerr(alloc::format!(
+                    "-ref: light {} (direction {:?}) is beyond f32 arithmetic",
+                    i + 1,
+                    lights[i].dir
+                )));
+            }
+            rl
         } else {
             Vec::new()
         };

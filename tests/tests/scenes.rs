@@ -668,6 +668,29 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     assert!(e.msg.contains("-ref: the camera"), "{e}");
 }
 
+/// Fuzz regression (-ref): a light direction of length ~3e-35 is normalized fine in f64,
+/// but its squared length underflows in f32 and lighting gave NaN; -ref refuses it.
+#[test]
+fn tiny_light_direction_under_reference_arithmetic() {
+    let lut = constant_lut([0.5, 0.5, 0.5, 0.5]);
+    let lights = [Light::new([1.0, 0.9, 0.8], [-1.86e-35; 3], true).unwrap()];
+    let mut p = RenderParams::new(cam(
+        [3.0, 2.0, 1.0],
+        [0.0; 3],
+        [0.0, 0.0, 1.0],
+        -1.0,
+        1.0,
+        [4, 4],
+        false,
+    ));
+    p.probe = Probe::RgbaLit;
+    p.blend = Blend::Over;
+    assert!(RenderSpec::new(p.clone(), Some(&lut), None, &lights).is_ok());
+    p.reference = true;
+    let e = RenderSpec::new(p, Some(&lut), None, &lights).unwrap_err();
+    assert!(e.msg.contains("-ref: light 1"), "{e}");
+}
+
 /// Fuzz regression: a negative specular exponent with ks = 0 gave 0 · ∞ = NaN; negative
 /// exponents are now refused, and ks = 0 skips the specular term.
 #[test]
