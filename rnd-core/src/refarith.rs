@@ -28,7 +28,7 @@
 //!
 //! [`Block`] and [`Lanes`] run eight samples side by side, each lane doing exactly the
 //! one-sample operations; the running sums still cost about 9 multiplies and 4 adds per
-//! support sample (the default engine sums separably), so `-ref` takes 1.2–3.5× the
+//! support sample (the default engine sums separably), so `-ref` takes 1.2–3.7× the
 //! default engine's time.
 
 use crate::affine::Affine4;

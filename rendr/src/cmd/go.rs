@@ -165,7 +165,7 @@ pub static SPEC: CmdSpec = CmdSpec {
                 &["ref"],
                 "reference arithmetic: the course reference program's f32 operation \
                  order (camera, ray steps, kernel formulas, summation), which \
-                 reproduces its images bit for bit where possible; 1.2-3.5x the time",
+                 reproduces its images bit for bit where possible; 1.2-3.7x the time",
             ),
             opt(&["q"], 2, "min max", "quantization range for PNG output"),
             opt(
