@@ -843,6 +843,73 @@ fn every_probe_blend_pair_blends_its_samples() {
     assert_eq!(checked, 3 * (9 * 3 + 2));
 }
 
+/// The scene of the loop-equivalence properties: a LUT, Levoy opacity and a light for a
+/// volume of value scale `scale`; probe `pi` and blend `bi` (over only for colour),
+/// camera [from, at], [near, far] planes, plane separation, projection and alphaNear1.
+#[allow(clippy::too_many_arguments)]
+fn loop_case(
+    scale: f64,
+    pi: usize,
+    bi: usize,
+    fr_at: [[f64; 3]; 2],
+    planes: [f64; 2],
+    step: f64,
+    ortho: bool,
+    a1: f32,
+) -> (Lut, Levoy, [Light; 1], RenderParams) {
+    let probe = [
+        Probe::Value,
+        Probe::GradVec,
+        Probe::GradMag,
+        Probe::Rgba,
+        Probe::RgbaLit,
+    ][pi];
+    let blend = if probe.is_colour() {
+        Blend::ALL[bi]
+    } else {
+        Blend::ALL[bi % 3]
+    };
+    let a = Txf::new(
+        TxfSpace::Alpha,
+        &[&[0.0, 0.0], &[0.3 * scale, 0.6], &[0.6 * scale, 0.0]],
+    )
+    .unwrap();
+    let c = Txf::new(
+        TxfSpace::Rgb,
+        &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]],
+    )
+    .unwrap();
+    let lut = Lut::generate(
+        Some(&c),
+        Some(&a),
+        false,
+        false,
+        300,
+        -2.0 * scale,
+        2.0 * scale,
+    )
+    .unwrap();
+    let lev = Levoy::new(vec![[(0.4 * scale) as f32, 0.5, 0.8]]).unwrap();
+    let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+    let [fr, at] = fr_at;
+    let mut p = RenderParams::new(cam(
+        fr,
+        at,
+        [0.0, 0.0, 1.0],
+        planes[0],
+        planes[1],
+        [9, 7],
+        ortho,
+    ));
+    p.plane_sep = step;
+    p.unit_step = 0.05;
+    p.probe = probe;
+    p.blend = blend;
+    p.alpha_near1 = a1;
+    p.outside = f32::NAN;
+    (lut, lev, lights, p)
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 64, .. Default::default() })]
 
@@ -872,20 +939,9 @@ proptest::proptest! {
         proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
         let sv = SdgVolume::new(which, [13, 11, 12], short);
         let (vol, scale) = (sv.vol(), sv.scale());
-        let probe = [Probe::Value, Probe::GradVec, Probe::GradMag, Probe::Rgba, Probe::RgbaLit][pi];
-        let blend = if probe.is_colour() { Blend::ALL[bi] } else { Blend::ALL[bi % 3] };
-        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[0.3 * scale, 0.6], &[0.6 * scale, 0.0]]).unwrap();
-        let c = Txf::new(TxfSpace::Rgb, &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]]).unwrap();
-        let lut = Lut::generate(Some(&c), Some(&a), false, false, 300, -2.0 * scale, 2.0 * scale).unwrap();
-        let lev = Levoy::new(vec![[(0.4 * scale) as f32, 0.5, 0.8]]).unwrap();
-        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
-        let mut p = RenderParams::new(cam(fr, at, [0.0, 0.0, 1.0], near, near + depth, [9, 7], ortho));
-        p.plane_sep = step;
-        p.unit_step = 0.05;
-        p.probe = probe;
-        p.blend = blend;
-        p.alpha_near1 = a1;
-        p.outside = f32::NAN;
+        let (lut, lev, lights, p) =
+            loop_case(scale, pi, bi, [fr, at], [near, near + depth], step, ortho, a1);
+        let (probe, blend) = (p.probe, p.blend);
         let lev = if levoy { Some(&lev) } else { None };
         let k = KernelName::ALL[ki];
         let Some((fast, plain)) = fast_and_plain(p, &lut, lev, &lights, vol, k) else {
@@ -988,20 +1044,9 @@ proptest::proptest! {
         proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
         let sv = SdgVolume::new(which, [13, 11, 12], short);
         let (vol, scale) = (sv.vol(), sv.scale());
-        let probe = [Probe::Value, Probe::GradVec, Probe::GradMag, Probe::Rgba, Probe::RgbaLit][pi];
-        let blend = if probe.is_colour() { Blend::ALL[bi] } else { Blend::ALL[bi % 3] };
-        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[0.3 * scale, 0.6], &[0.6 * scale, 0.0]]).unwrap();
-        let c = Txf::new(TxfSpace::Rgb, &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]]).unwrap();
-        let lut = Lut::generate(Some(&c), Some(&a), false, false, 300, -2.0 * scale, 2.0 * scale).unwrap();
-        let lev = Levoy::new(vec![[(0.4 * scale) as f32, 0.5, 0.8]]).unwrap();
-        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
-        let mut p = RenderParams::new(cam(fr, at, [0.0, 0.0, 1.0], near, near + depth, [9, 7], ortho));
-        p.plane_sep = step;
-        p.unit_step = 0.05;
-        p.probe = probe;
-        p.blend = blend;
-        p.alpha_near1 = a1;
-        p.outside = f32::NAN;
+        let (lut, lev, lights, mut p) =
+            loop_case(scale, pi, bi, [fr, at], [near, near + depth], step, ortho, a1);
+        let (probe, blend) = (p.probe, p.blend);
         p.time = false;
         p.reference = true;
         let lev = if levoy { Some(&lev) } else { None };
