@@ -492,23 +492,14 @@ impl<const S: usize> Lanes<S> {
     #[inline(always)]
     pub fn push<V: Voxel, K: Kernel<S>>(&mut self, vol: &Volume<'_, V>, p: V3) -> bool {
         let sz = vol.sizes();
-        let mut flat = 0usize;
-        let mut al = [0.0f32; 3];
-        let mut stride = 1usize;
+        let (mut n, mut al) = ([0i64; 3], [0.0f32; 3]);
         for a in 0..3 {
             let Some((lo, f)) = place::<K, S>(p[a], sz[a]) else {
                 return false;
             };
-            flat += lo as usize * stride;
-            stride *= sz[a];
-            al[a] = f;
+            (n[a], al[a]) = (lo, f);
         }
-        let l = self.len;
-        self.base[l] = flat;
-        for a in 0..3 {
-            self.al[a][l] = al[a];
-        }
-        self.len += 1;
+        self.push_placed(vol, n, al);
         true
     }
 

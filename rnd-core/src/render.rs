@@ -809,7 +809,8 @@ impl RenderSpec<'_> {
         let mut k0: u32 = 0;
         'ray: loop {
             let b = Block::new::<V, K, S>(cam, &ray, &wtoi, vol, k0);
-            // A block with no sample inside and none past the far plane changes nothing.
+            // Whether sample l ends the ray (past the far plane or the sample bound). A
+            // block with no sample inside and none ending the ray changes nothing.
             let past = |l: usize| {
                 let k = k0 + l as u32;
                 (k > 0) & ((-b.z[l] > cam.fcv) | (k > kmax))
@@ -819,8 +820,7 @@ impl RenderSpec<'_> {
                 continue;
             }
             for l in 0..LANES {
-                let k = k0 + l as u32;
-                if k > 0 && (-b.z[l] > cam.fcv || k > kmax) {
+                if past(l) {
                     break 'ray;
                 }
                 if !b.inside[l] {
