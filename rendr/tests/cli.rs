@@ -1115,11 +1115,12 @@ fn db_traces_one_ray() {
     assert!(s.lines().last().unwrap().starts_with("result: "));
 }
 
-/// `go -ref` with the SPEC §4.9 command reproduces cube-rgb.nrrd on every pixel, and
-/// `-db` with `-ref` traces the same arithmetic (its result is the image's pixel).
+/// `go` with the SPEC §4.9 command (the default `-ref true`: the reference program's
+/// arithmetic) reproduces cube-rgb.nrrd on every pixel, and `-db` traces the same
+/// arithmetic (its result is the image's pixel).
 #[test]
-fn go_ref_reproduces_cube_rgb() {
-    let Some(sh) = rnd_tests::shared("go_ref_reproduces_cube_rgb") else {
+fn go_reproduces_cube_rgb() {
+    let Some(sh) = rnd_tests::shared("go_reproduces_cube_rgb") else {
         return;
     };
     let rd = sh.join("rendr-data");
@@ -1133,7 +1134,7 @@ fn go_ref_reproduces_cube_rgb() {
     args.extend([
         "-fr", "6", "12", "5", "-at", "0", "0", "0", "-up", "0", "0", "1", "-nc", "-2.3", "-fc",
         "2.3", "-fov", "14", "-sz", "320", "280", "-us", "0.03", "-s", "0.03", "-k", "bspln3",
-        "-p", "rgbalit", "-b", "over", "-nt", "2", "-ref",
+        "-p", "rgbalit", "-b", "over", "-nt", "2",
     ]);
     args.extend(["-lut", lut.to_str().unwrap(), "-lit", rgb.to_str().unwrap()]);
     let mut render = args.clone();
@@ -1147,7 +1148,14 @@ fn go_ref_reproduces_cube_rgb() {
         .zip(&want)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f32, f32::max);
-    assert!(worst <= 2.5e-6, "go -ref: max error {worst}");
+    assert!(worst <= 2.5e-6, "go: max error {worst}");
+    // Alpha is bit-exact on every pixel (docs/VERIFICATION.md section 5).
+    assert!(
+        got.chunks(4)
+            .zip(want.chunks(4))
+            .all(|(a, b)| a[3].to_bits() == b[3].to_bits()),
+        "go: an alpha differs from the reference's"
+    );
     // Without the AVX2 paths (SSE2 only): the same bytes.
     let mut sse = args.clone();
     sse.extend(["-o", "cube-rgb-sse.nrrd"]);
@@ -1164,7 +1172,7 @@ fn go_ref_reproduces_cube_rgb() {
             .iter()
             .zip(&got)
             .all(|(a, b)| a.to_bits() == b.to_bits()),
-        "go -ref differs without AVX2"
+        "go differs without AVX2"
     );
 
     // SPEC §13.5 pixel (176, 19) traced: the last line is the pixel's value.
@@ -1188,8 +1196,9 @@ fn go_ref_reproduces_cube_rgb() {
     }
 }
 
-/// `-ref` compares index bounds in f32, exact only below 2^24: a longer axis is refused
-/// with a clear message (never an out-of-bounds read), and renders without `-ref`.
+/// The reference arithmetic (the default) compares index bounds in f32, exact only
+/// below 2^24: a longer axis is refused with a clear message (never an out-of-bounds
+/// read), and renders with `-ref false`. Likewise cameras and steps f32 cannot hold.
 #[test]
 fn ref_refuses_axes_beyond_f32() {
     let d = rnd_tests::tmpdir("refaxis");
@@ -1239,15 +1248,16 @@ fn ref_refuses_axes_beyond_f32() {
         "-o",
         "x.nrrd",
     ];
-    let mut with_ref = go.to_vec();
-    with_ref.push("-ref");
     fails(
         &d,
-        &with_ref,
-        "-ref: long.nrrd: an axis of 16777216 samples",
+        &go,
+        "long.nrrd: an axis of 16777216 samples is beyond exact f32 index arithmetic \
+         (at most 16777215); render with -ref false",
         Some("x.nrrd"),
     );
-    ok(&d, &go);
+    let mut f64_engine = go.to_vec();
+    f64_engine.extend(["-ref", "false"]);
+    ok(&d, &f64_engine);
     // A camera or step that exists in f64 but not in f32.
     ok(
         &d,
@@ -1284,14 +1294,20 @@ fn ref_refuses_axes_beyond_f32() {
         "1e37",
         "-us",
         "1e37",
-        "-ref",
         "-o",
         "y.nrrd",
     ];
-    fails(&d, &far, "-ref: the camera", Some("y.nrrd"));
+    fails(&d, &far, "the camera (look-from", Some("y.nrrd"));
     let mut tiny = go.to_vec();
-    tiny.extend(["-i", "small.nrrd", "-us", "1e-60", "-ref", "-o", "z.nrrd"]);
-    fails(&d, &tiny, "-ref: -us 1e-60", Some("z.nrrd"));
+    tiny.extend(["-i", "small.nrrd", "-us", "1e-60", "-o", "z.nrrd"]);
+    fails(
+        &d,
+        &tiny,
+        "-us 1e-60 / -s 0.1 are beyond the reference's f32 arithmetic; use -ref false",
+        Some("z.nrrd"),
+    );
+    tiny.extend(["-ref", "false"]);
+    ok(&d, &tiny);
 }
 
 #[test]
@@ -1504,8 +1520,9 @@ fn mgo_runs_many() {
     fails(&d, &["mgo", "-i", "bad2.txt"], "line 1", Some("z.nrrd"));
 }
 
-/// `-fast false` (the plain reference loop, no empty-space skipping) and the default
-/// accelerated loop write identical bytes on the bundled real MRI: lit `over` with the
+/// `-fast false` (the plain one-sample loop, no empty-space skipping) and the default
+/// accelerated loop write identical bytes on the bundled real MRI, in both engines
+/// (`-ref true`, the default, and `-ref false`): lit `over` with the
 /// bundled LUT (exercises skipping and early termination) and gradient-magnitude MIP
 /// with several kernels, i16 voxels, a perspective camera partly outside the volume.
 #[test]
@@ -1524,34 +1541,41 @@ fn fast_loop_matches_plain_on_real_volume() {
         ],
     ];
     for (i, extra) in cases.iter().enumerate() {
-        let mut outs = Vec::new();
-        for fast in ["true", "false"] {
-            let o = d.join(format!("o{i}-{fast}.nrrd"));
-            let o = o.to_string_lossy();
-            let mut args = vec![
-                "go",
-                "@data/head.txt",
-                "-fast",
-                fast,
-                "-ess",
-                fast,
-                "-o",
-                &o,
-            ];
-            args.extend_from_slice(extra);
-            ok(&top, &args);
-            // The data, bit for bit (the headers differ: they record the command).
-            let (_, v) = read_floats(Path::new(&*o));
-            outs.push(v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+        for engine in ["true", "false"] {
+            let mut outs = Vec::new();
+            for fast in ["true", "false"] {
+                let o = d.join(format!("o{i}-{engine}-{fast}.nrrd"));
+                let o = o.to_string_lossy();
+                let mut args = vec![
+                    "go",
+                    "@data/head.txt",
+                    "-ref",
+                    engine,
+                    "-fast",
+                    fast,
+                    "-ess",
+                    fast,
+                    "-o",
+                    &o,
+                ];
+                args.extend_from_slice(extra);
+                ok(&top, &args);
+                // The data, bit for bit (the headers differ: they record the command).
+                let (_, v) = read_floats(Path::new(&*o));
+                outs.push(v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+            }
+            assert!(outs[0].len() > 1000);
+            assert!(
+                outs[0] == outs[1],
+                "case {extra:?} -ref {engine}: fast and plain differ"
+            );
         }
-        assert!(outs[0].len() > 1000);
-        assert!(outs[0] == outs[1], "case {extra:?}: fast and plain differ");
     }
 }
 
-/// Convolving two samples at once with AVX2 (where the processor has it) gives the
-/// bits of the SSE path (`RND_AVX2=0`), on the bundled MRI for every probe that
-/// convolves and both cubic kernels.
+/// Convolving with AVX2 (where the processor has it) gives the bits of the SSE path
+/// (`RND_AVX2=0`), in both engines, on the bundled MRI for every probe that convolves
+/// and both cubic kernels.
 #[test]
 fn avx2_matches_sse_on_real_volume() {
     if !rnd_core::avx::avx2_enabled() {
@@ -1566,24 +1590,29 @@ fn avx2_matches_sse_on_real_volume() {
         &["-sz", "64", "64", "-p", "gv", "-b", "sum", "-ortho"],
     ];
     for (i, extra) in cases.iter().enumerate() {
-        let mut outs = Vec::new();
-        for avx in ["1", "0"] {
-            let o = d.join(format!("o{i}-{avx}.nrrd"));
-            let o = o.to_string_lossy();
-            let mut args = vec!["go", "@data/head.txt", "-o", &o];
-            args.extend_from_slice(extra);
-            let r = rendr()
-                .current_dir(&top)
-                .env("RND_AVX2", avx)
-                .args(&args)
-                .output()
-                .expect("run rendr");
-            assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-            let (_, v) = read_floats(Path::new(&*o));
-            outs.push(v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+        for engine in ["true", "false"] {
+            let mut outs = Vec::new();
+            for avx in ["1", "0"] {
+                let o = d.join(format!("o{i}-{engine}-{avx}.nrrd"));
+                let o = o.to_string_lossy();
+                let mut args = vec!["go", "@data/head.txt", "-ref", engine, "-o", &o];
+                args.extend_from_slice(extra);
+                let r = rendr()
+                    .current_dir(&top)
+                    .env("RND_AVX2", avx)
+                    .args(&args)
+                    .output()
+                    .expect("run rendr");
+                assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+                let (_, v) = read_floats(Path::new(&*o));
+                outs.push(v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+            }
+            assert!(outs[0].len() > 1000);
+            assert!(
+                outs[0] == outs[1],
+                "case {extra:?} -ref {engine}: AVX2 and SSE differ"
+            );
         }
-        assert!(outs[0].len() > 1000);
-        assert!(outs[0] == outs[1], "case {extra:?}: AVX2 and SSE differ");
     }
 }
 

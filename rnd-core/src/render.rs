@@ -57,10 +57,12 @@ pub struct RenderParams {
     /// each ray's inside stretch is found up front and only it is sampled. Exact: the
     /// output is bit-identical to the plain loop.
     pub fast_loop: bool,
-    /// Compute in the course reference program's f32 arithmetic (`-ref`,
-    /// [`crate::refarith`]) instead of the default engine (f64 geometry, reordered
-    /// sums): reproduces the reference's images, slower. For volumes of at most
-    /// [`refarith::MAX_AXIS`] samples per axis.
+    /// Compute in the course reference program's f32 arithmetic (`-ref`, the default;
+    /// [`crate::refarith`]), which reproduces the reference's images. `false` selects
+    /// the fast engine (f64 geometry, separable SIMD sums): 1.2–3.7× quicker, within
+    /// 1e-4 relative of the reference arithmetic but not its bits. The reference
+    /// arithmetic needs volumes of at most [`refarith::MAX_AXIS`] samples per axis and a
+    /// camera, lights and steps that f32 can hold ([`RenderSpec::new`] checks the last).
     pub reference: bool,
 }
 
@@ -82,7 +84,7 @@ impl RenderParams {
             time: false,
             skip_empty: true,
             fast_loop: true,
-            reference: false,
+            reference: true,
         }
     }
 }
@@ -199,8 +201,9 @@ impl<'a> RenderSpec<'a> {
         let ref_lights = if params.reference {
             if !ref_cam.is_finite() {
                 return Err(rerr(alloc::format!(
-                    "-ref: the camera (look-from {:?}, look-at {:?}) is beyond f32 \
-                     arithmetic (there: eye distance {}, near plane {}, far plane {})",
+                    "the camera (look-from {:?}, look-at {:?}) is beyond the reference's \
+                     f32 arithmetic (there: eye distance {}, near plane {}, far plane {}); \
+                     use -ref false",
                     params.camera.fr,
                     params.camera.at,
                     ref_cam.d,
@@ -211,7 +214,7 @@ impl<'a> RenderSpec<'a> {
             let f32_ok = |x: f64| (x as f32).is_finite() && (x == 0.0 || x as f32 > 0.0);
             if !f32_ok(params.unit_step) || !f32_ok(params.plane_sep) {
                 return Err(rerr(alloc::format!(
-                    "-ref: -us {:?} / -s {:?} are beyond f32 arithmetic",
+                    "-us {:?} / -s {:?} are beyond the reference's f32 arithmetic; use -ref false",
                     params.unit_step,
                     params.plane_sep
                 )));
@@ -222,7 +225,8 @@ impl<'a> RenderSpec<'a> {
                 .position(|(c, d)| !c.iter().chain(d.iter()).all(|x| x.is_finite()))
             {
                 return Err(rerr(alloc::format!(
-                    "-ref: light {} (direction {:?}) is beyond f32 arithmetic",
+                    "light {} (direction {:?}) is beyond the reference's f32 arithmetic; \
+                     use -ref false",
                     i + 1,
                     lights[i].dir
                 )));
@@ -589,6 +593,9 @@ impl RenderSpec<'_> {
     /// [`RenderSpec::cast_skip`] in the reference program's f32 arithmetic
     /// ([`crate::refarith`]; `params.reference`). Skipping empty blocks (`over` only) is
     /// exact here too: such a sample has opacity 0, which leaves T and C unchanged.
+    /// Without a trace, with `params.fast_loop` and a probe read from the convolution,
+    /// samples go through the batched loop (eight at a time); otherwise one at a time.
+    /// Both give the same bits.
     pub fn cast_ref<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,
         convo: &Convo<'_, V, K, S>,
@@ -598,7 +605,7 @@ impl RenderSpec<'_> {
         out: &mut [f32],
         mut trace: Option<&mut dyn FnMut(&SampleInfo)>,
     ) {
-        if trace.is_none() && !self.once && self.probe_counts_inside_only() {
+        if trace.is_none() && !self.once && self.fast_applies() {
             return if self.need_grad {
                 self.cast_ref_lanes::<V, K, S, true>(convo, skip, hi, vi, out)
             } else {
@@ -806,8 +813,17 @@ impl RenderSpec<'_> {
             }
             false
         };
-        let mut k0: u32 = 0;
-        'ray: loop {
+        // Samples before `first` or after `last` are outside: they change nothing (these
+        // probes count inside only), and the far plane ends the ray at the same place
+        // (positions move monotonically along the ray, so if a skipped sample is past
+        // it, so is every sample from `first` on).
+        let Some((first, last)) = refarith::inside_span::<V, K, S>(cam, &ray, &wtoi, vol, kmax)
+        else {
+            acc.finish(p.outside, out);
+            return;
+        };
+        let mut k0 = first;
+        'ray: while k0 <= last {
             let b = Block::new::<V, K, S>(cam, &ray, &wtoi, vol, k0);
             // Whether sample l ends the ray (past the far plane or the sample bound). A
             // block with no sample inside and none ending the ray changes nothing.

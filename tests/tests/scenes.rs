@@ -52,6 +52,10 @@ fn cam(
     }
 }
 
+/// Both engines: the reference arithmetic (`RenderParams::reference`, the default) and
+/// the f64-geometry engine. The analytic scenes hold for each.
+const ENGINES: [bool; 2] = [true, false];
+
 fn constant_lut(rgba: [f32; 4]) -> Lut {
     Lut::new(-10.0, 10.0, vec![rgba; 16]).unwrap()
 }
@@ -112,53 +116,58 @@ fn px(img: &[f32], ch: usize, w: u32, h: u32, v: u32) -> &[f32] {
 /// samples) × step length.
 #[test]
 fn constant_medium_over_opacity() {
-    let g = grid([20, 20, 20], [0.0; 3]);
-    let (data, itow) = make(11, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    let alpha = 0.3f32;
-    let lut = constant_lut([1.0, 1.0, 1.0, alpha]);
-    for (ortho, us, s) in [(true, 0.1, 0.01), (false, 0.05, 0.02), (true, 1.0, 0.003)] {
-        let mut p = RenderParams::new(cam(
-            [0.3, 0.2, 5.0],
-            [0.0; 3],
-            [0.0, 1.0, 0.0],
-            -2.0,
-            2.0,
-            [9, 7],
-            ortho,
-        ));
-        p.plane_sep = s;
-        p.unit_step = us;
-        p.probe = Probe::Rgba;
-        p.blend = Blend::Over;
-        let spec = RenderSpec::new(p.clone(), Some(&lut), None, &[]).unwrap();
-        let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
-        p.probe = Probe::Inside;
-        p.blend = Blend::Sum;
-        let cspec = RenderSpec::new(p, None, None, &[]).unwrap();
-        let count = render(&cspec, AnyVolume::F32(vol), KernelName::Tent);
-        for v in 0..7 {
-            for h in 0..9 {
-                let n = px(&count, 1, 9, h, v)[0] as f64;
-                let step = spec.ray_geom(h, v).step_len;
-                let l = n * step;
-                let want = 1.0 - (1.0 - alpha as f64).powf(l / us);
-                let a = px(&img, 4, 9, h, v)[3] as f64;
-                assert!(
-                    (a - want).abs() < 2e-5 * n.max(1.0).sqrt(),
-                    "ortho {ortho} ({h},{v}): {a} vs {want} (n {n})"
-                );
-                let rgb = &px(&img, 4, 9, h, v)[..3];
-                if n > 0.0 {
-                    assert_eq!(rgb, &[1.0, 1.0, 1.0]);
-                } else {
-                    assert_eq!(rgb, &[0.0, 0.0, 0.0], "outside value");
-                }
-                if ortho && h == 4 && v == 3 {
-                    // The centre ray crosses the inside slab z in [-0.95, 0.95] along the
-                    // direction (0.3, 0.2, 5): path length 1.9 |d| / d_z.
-                    let want_l = 1.9 * (0.3f64 * 0.3 + 0.2 * 0.2 + 25.0).sqrt() / 5.0;
-                    assert!((l - want_l).abs() <= step + 1e-9, "L = {l} vs {want_l}");
+    for reference in ENGINES {
+        let g = grid([20, 20, 20], [0.0; 3]);
+        let (data, itow) = make(11, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        let alpha = 0.3f32;
+        let lut = constant_lut([1.0, 1.0, 1.0, alpha]);
+        for (ortho, us, s) in [(true, 0.1, 0.01), (false, 0.05, 0.02), (true, 1.0, 0.003)] {
+            let mut p = RenderParams::new(cam(
+                [0.3, 0.2, 5.0],
+                [0.0; 3],
+                [0.0, 1.0, 0.0],
+                -2.0,
+                2.0,
+                [9, 7],
+                ortho,
+            ));
+            p.reference = reference;
+            p.plane_sep = s;
+            p.unit_step = us;
+            p.probe = Probe::Rgba;
+            p.blend = Blend::Over;
+            let spec = RenderSpec::new(p.clone(), Some(&lut), None, &[]).unwrap();
+            let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
+            p.probe = Probe::Inside;
+            p.blend = Blend::Sum;
+            let cspec = RenderSpec::new(p, None, None, &[]).unwrap();
+            let count = render(&cspec, AnyVolume::F32(vol), KernelName::Tent);
+            for v in 0..7 {
+                for h in 0..9 {
+                    let n = px(&count, 1, 9, h, v)[0] as f64;
+                    let step = spec.ray_geom(h, v).step_len;
+                    let l = n * step;
+                    let want = 1.0 - (1.0 - alpha as f64).powf(l / us);
+                    let a = px(&img, 4, 9, h, v)[3] as f64;
+                    assert!(
+                        (a - want).abs() < 2e-5 * n.max(1.0).sqrt(),
+                        "ortho {ortho} ({h},{v}): {a} vs {want} (n {n})"
+                    );
+                    let rgb = &px(&img, 4, 9, h, v)[..3];
+                    if n > 0.0 {
+                        // White in, white out (the reference arithmetic divides its
+                        // premultiplied colour by 1 - T: within an ulp or so of 1).
+                        assert!(rgb.iter().all(|&c| (c - 1.0).abs() < 1e-6), "{rgb:?}");
+                    } else {
+                        assert_eq!(rgb, &[0.0, 0.0, 0.0], "outside value");
+                    }
+                    if ortho && h == 4 && v == 3 {
+                        // The centre ray crosses the inside slab z in [-0.95, 0.95] along the
+                        // direction (0.3, 0.2, 5): path length 1.9 |d| / d_z.
+                        let want_l = 1.9 * (0.3f64 * 0.3 + 0.2 * 0.2 + 25.0).sqrt() / 5.0;
+                        assert!((l - want_l).abs() <= step + 1e-9, "L = {l} vs {want_l}");
+                    }
                 }
             }
         }
@@ -168,54 +177,57 @@ fn constant_medium_over_opacity() {
 /// Halving the plane separation with the same unit step changes `over` very little.
 #[test]
 fn opacity_correction_makes_step_size_irrelevant() {
-    let g = Grid {
-        sizes: [40, 40, 40],
-        lengths: [4.0; 3],
-        shear: [0.0; 3],
-        rot: [0.0; 3],
-        centre: [0.0; 3],
-    };
-    let (data, itow) = make(2, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    // A smooth opacity ramp and colour ramp.
-    let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.6]]).unwrap();
-    let c = Txf::new(
-        TxfSpace::Rgb,
-        &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 0.0, 1.0]],
-    )
-    .unwrap();
-    let lut = Lut::generate(Some(&c), Some(&a), false, false, 4096, 0.0, 1.0).unwrap();
-    let mut p = RenderParams::new(cam(
-        [6.0, 12.0, 5.0],
-        [0.0; 3],
-        [0.0, 0.0, 1.0],
-        -2.5,
-        2.5,
-        [40, 36],
-        false,
-    ));
-    p.probe = Probe::Rgba;
-    p.blend = Blend::Over;
-    p.unit_step = 0.05;
-    p.plane_sep = 0.01;
-    let fine = render(
-        &RenderSpec::new(p.clone(), Some(&lut), None, &[]).unwrap(),
-        AnyVolume::F32(vol),
-        KernelName::Bspln3,
-    );
-    p.plane_sep = 0.005;
-    let finer = render(
-        &RenderSpec::new(p, Some(&lut), None, &[]).unwrap(),
-        AnyVolume::F32(vol),
-        KernelName::Bspln3,
-    );
-    let worst = fine
-        .iter()
-        .zip(&finer)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
-    assert!(worst < 1e-3, "halving -s changed over by {worst}");
-    assert!(fine.chunks(4).filter(|p| p[3] > 0.5).count() > 100);
+    for reference in ENGINES {
+        let g = Grid {
+            sizes: [40, 40, 40],
+            lengths: [4.0; 3],
+            shear: [0.0; 3],
+            rot: [0.0; 3],
+            centre: [0.0; 3],
+        };
+        let (data, itow) = make(2, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        // A smooth opacity ramp and colour ramp.
+        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.6]]).unwrap();
+        let c = Txf::new(
+            TxfSpace::Rgb,
+            &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 0.0, 1.0]],
+        )
+        .unwrap();
+        let lut = Lut::generate(Some(&c), Some(&a), false, false, 4096, 0.0, 1.0).unwrap();
+        let mut p = RenderParams::new(cam(
+            [6.0, 12.0, 5.0],
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            -2.5,
+            2.5,
+            [40, 36],
+            false,
+        ));
+        p.reference = reference;
+        p.probe = Probe::Rgba;
+        p.blend = Blend::Over;
+        p.unit_step = 0.05;
+        p.plane_sep = 0.01;
+        let fine = render(
+            &RenderSpec::new(p.clone(), Some(&lut), None, &[]).unwrap(),
+            AnyVolume::F32(vol),
+            KernelName::Bspln3,
+        );
+        p.plane_sep = 0.005;
+        let finer = render(
+            &RenderSpec::new(p, Some(&lut), None, &[]).unwrap(),
+            AnyVolume::F32(vol),
+            KernelName::Bspln3,
+        );
+        let worst = fine
+            .iter()
+            .zip(&finer)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-3, "halving -s changed over by {worst}");
+        assert!(fine.chunks(4).filter(|p| p[3] > 0.5).count() > 100);
+    }
 }
 
 fn argmax(img: &[f32], w: u32) -> (u32, u32) {
@@ -230,31 +242,34 @@ fn argmax(img: &[f32], w: u32) -> (u32, u32) {
 /// is the image centre.
 #[test]
 fn impulse_lands_where_projected() {
-    let g = grid([20, 24, 22], [0.3, -0.2, 0.1]);
-    let (data, itow) = make(8, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    let spot = itow.point([10.0, 12.0, 11.0]);
-    for (fr, up, ortho) in [
-        ([4.0, 3.0, 2.0], [0.0, 0.0, 1.0], false),
-        ([-2.0, 5.0, -3.0], [1.0, 0.0, 0.0], true),
-        ([0.5, -0.5, 6.0], [0.0, 1.0, 0.0], false),
-    ] {
-        for at in [[0.0; 3], [0.5, -0.4, 0.2]] {
-            let spec_c = cam(fr, at, up, -2.0, 2.0, [61, 47], ortho);
-            let mut p = RenderParams::new(spec_c);
-            p.plane_sep = 0.01;
-            p.probe = Probe::Value;
-            let spec = RenderSpec::new(p, None, None, &[]).unwrap();
-            let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
-            let (h, v) = argmax(&img, 61);
-            let (ph, pv) = spec.camera.project(spot);
-            assert!(
-                (h as f64 - ph).abs() <= 1.0 && (v as f64 - pv).abs() <= 1.0,
-                "fr {fr:?}: max at ({h},{v}), predicted ({ph:.2},{pv:.2})"
-            );
-            // The look-at point projects to the image centre.
-            let (ch, cv) = spec.camera.project(at);
-            assert!((ch - 30.0).abs() < 1e-9 && (cv - 23.0).abs() < 1e-9);
+    for reference in ENGINES {
+        let g = grid([20, 24, 22], [0.3, -0.2, 0.1]);
+        let (data, itow) = make(8, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        let spot = itow.point([10.0, 12.0, 11.0]);
+        for (fr, up, ortho) in [
+            ([4.0, 3.0, 2.0], [0.0, 0.0, 1.0], false),
+            ([-2.0, 5.0, -3.0], [1.0, 0.0, 0.0], true),
+            ([0.5, -0.5, 6.0], [0.0, 1.0, 0.0], false),
+        ] {
+            for at in [[0.0; 3], [0.5, -0.4, 0.2]] {
+                let spec_c = cam(fr, at, up, -2.0, 2.0, [61, 47], ortho);
+                let mut p = RenderParams::new(spec_c);
+                p.reference = reference;
+                p.plane_sep = 0.01;
+                p.probe = Probe::Value;
+                let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+                let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
+                let (h, v) = argmax(&img, 61);
+                let (ph, pv) = spec.camera.project(spot);
+                assert!(
+                    (h as f64 - ph).abs() <= 1.0 && (v as f64 - pv).abs() <= 1.0,
+                    "fr {fr:?}: max at ({h},{v}), predicted ({ph:.2},{pv:.2})"
+                );
+                // The look-at point projects to the image centre.
+                let (ch, cv) = spec.camera.project(at);
+                assert!((ch - 30.0).abs() < 1e-9 && (cv - 23.0).abs() < 1e-9);
+            }
         }
     }
 }
@@ -263,116 +278,124 @@ fn impulse_lands_where_projected() {
 /// image, and the aspect ratio is honoured (pixels are square in world units).
 #[test]
 fn look_at_centre_up_is_up_aspect() {
-    let g = grid([8, 8, 8], [0.0; 3]);
-    let (data, itow) = make(11, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    for ortho in [false, true] {
-        let fr = [3.0, -4.0, 2.0];
-        let at = [0.2, 0.1, -0.3];
-        let up = [0.3, 0.1, 1.0];
-        let mut p = RenderParams::new(cam(fr, at, up, -1.0, 1.0, [41, 21], ortho));
-        p.plane_sep = 0.0;
-        p.probe = Probe::PosWorld;
-        let spec = RenderSpec::new(p, None, None, &[]).unwrap();
-        let img = render(&spec, AnyVolume::F32(vol), KernelName::Box);
-        let at_pix = |h, v| -> [f64; 3] {
-            let q = px(&img, 3, 41, h, v);
-            [q[0] as f64, q[1] as f64, q[2] as f64]
-        };
-        // Centre pixel's near-plane point lies on the line fr -> at.
-        let c = at_pix(20, 10);
-        let dir = rnd_core::math::v3::normalize(rnd_core::math::v3::sub(at, fr));
-        let rel = rnd_core::math::v3::sub(c, fr);
-        let off = rnd_core::math::v3::sub(
-            rel,
-            rnd_core::math::v3::scale(rnd_core::math::v3::dot(rel, dir), dir),
-        );
-        assert!(
-            rnd_core::math::v3::len(off) < 1e-5,
-            "ortho {ortho}: centre ray off by {off:?}"
-        );
-        // Up: the top row is further along `up` than the bottom row; right is up × back.
-        let top = at_pix(20, 0);
-        let bottom = at_pix(20, 20);
-        assert!(rnd_core::math::v3::dot(rnd_core::math::v3::sub(top, bottom), up) > 0.0);
-        let left = at_pix(0, 10);
-        let right = at_pix(40, 10);
-        let rdir = rnd_core::math::v3::sub(right, left);
-        assert!(rnd_core::math::v3::dot(rdir, spec.camera.u.to_array()) > 0.0);
-        // Square pixels: horizontal and vertical neighbour spacing are equal.
-        let dx = rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(21, 10), at_pix(20, 10)));
-        let dy = rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(20, 11), at_pix(20, 10)));
-        assert!((dx - dy).abs() < 1e-5 * dx, "{dx} vs {dy}");
-        // FOV: the image-plane height through the look-at is 2 d tan(fov/2).
-        let d = spec.camera.d;
-        assert!((spec.camera.hght - 2.0 * d * (15f64).to_radians().tan()).abs() < 1e-12);
+    for reference in ENGINES {
+        let g = grid([8, 8, 8], [0.0; 3]);
+        let (data, itow) = make(11, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        for ortho in [false, true] {
+            let fr = [3.0, -4.0, 2.0];
+            let at = [0.2, 0.1, -0.3];
+            let up = [0.3, 0.1, 1.0];
+            let mut p = RenderParams::new(cam(fr, at, up, -1.0, 1.0, [41, 21], ortho));
+            p.reference = reference;
+            p.plane_sep = 0.0;
+            p.probe = Probe::PosWorld;
+            let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+            let img = render(&spec, AnyVolume::F32(vol), KernelName::Box);
+            let at_pix = |h, v| -> [f64; 3] {
+                let q = px(&img, 3, 41, h, v);
+                [q[0] as f64, q[1] as f64, q[2] as f64]
+            };
+            // Centre pixel's near-plane point lies on the line fr -> at.
+            let c = at_pix(20, 10);
+            let dir = rnd_core::math::v3::normalize(rnd_core::math::v3::sub(at, fr));
+            let rel = rnd_core::math::v3::sub(c, fr);
+            let off = rnd_core::math::v3::sub(
+                rel,
+                rnd_core::math::v3::scale(rnd_core::math::v3::dot(rel, dir), dir),
+            );
+            assert!(
+                rnd_core::math::v3::len(off) < 1e-5,
+                "ortho {ortho}: centre ray off by {off:?}"
+            );
+            // Up: the top row is further along `up` than the bottom row; right is up × back.
+            let top = at_pix(20, 0);
+            let bottom = at_pix(20, 20);
+            assert!(rnd_core::math::v3::dot(rnd_core::math::v3::sub(top, bottom), up) > 0.0);
+            let left = at_pix(0, 10);
+            let right = at_pix(40, 10);
+            let rdir = rnd_core::math::v3::sub(right, left);
+            assert!(rnd_core::math::v3::dot(rdir, spec.camera.u.to_array()) > 0.0);
+            // Square pixels: horizontal and vertical neighbour spacing are equal.
+            let dx =
+                rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(21, 10), at_pix(20, 10)));
+            let dy =
+                rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(20, 11), at_pix(20, 10)));
+            assert!((dx - dy).abs() < 1e-5 * dx, "{dx} vs {dy}");
+            // FOV: the image-plane height through the look-at is 2 d tan(fov/2).
+            let d = spec.camera.d;
+            assert!((spec.camera.hght - 2.0 * d * (15f64).to_radians().tan()).abs() < 1e-12);
+        }
     }
 }
 
 /// Near and far planes clip, and sum / mean of `in` count the samples taken.
 #[test]
 fn clipping_and_counting() {
-    let g = grid([20, 20, 20], [0.0; 3]);
-    let (data, itow) = make(11, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    for (nc, fc, s) in [
-        (-0.5, 0.3, 0.01),
-        (-0.9, 0.9, 0.05),
-        (0.2, 0.25, 0.01),
-        (-3.0, 3.0, 0.1),
-    ] {
-        let mut p = RenderParams::new(cam(
-            [0.0, 0.0, 5.0],
-            [0.0; 3],
-            [0.0, 1.0, 0.0],
-            nc,
-            fc,
-            [5, 5],
-            true,
-        ));
-        p.plane_sep = s;
-        p.probe = Probe::Inside;
-        p.blend = Blend::Sum;
-        let sum = render(
-            &RenderSpec::new(p.clone(), None, None, &[]).unwrap(),
-            AnyVolume::F32(vol),
-            KernelName::Tent,
-        );
-        p.blend = Blend::Mean;
-        let mean = render(
-            &RenderSpec::new(p.clone(), None, None, &[]).unwrap(),
-            AnyVolume::F32(vol),
-            KernelName::Tent,
-        );
-        p.probe = Probe::PosView;
-        p.blend = Blend::Sum;
-        let pv = render(
-            &RenderSpec::new(p, None, None, &[]).unwrap(),
-            AnyVolume::F32(vol),
-            KernelName::Tent,
-        );
-        // Planes at z = -nc - k s (world z = 5 - depth), k = 0.. while depth <= fcv.
-        let total = ((fc - nc) / s + 1e-9).floor() as usize + 1;
-        let inside = (0..total)
-            .filter(|k| {
-                let z = -nc - *k as f64 * s;
-                z.abs() <= 0.95 + 1e-12
-            })
-            .count();
-        let c = sum[12] as usize;
-        assert_eq!(
-            c, inside,
-            "nc {nc} fc {fc}: {c} inside samples, expected {inside}"
-        );
-        assert!((mean[12] as f64 - inside as f64 / total as f64).abs() < 1e-6);
-        // Sum of the view z over all samples: an arithmetic series.
-        let ncv = 5.0 + nc;
-        let want: f64 = (0..total).map(|k| -(ncv + k as f64 * s)).sum();
-        assert!(
-            (pv[12 * 3 + 2] as f64 - want).abs() < 1e-4 * want.abs(),
-            "{} vs {want}",
-            pv[38]
-        );
+    for reference in ENGINES {
+        let g = grid([20, 20, 20], [0.0; 3]);
+        let (data, itow) = make(11, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        for (nc, fc, s) in [
+            (-0.5, 0.3, 0.01),
+            (-0.9, 0.9, 0.05),
+            (0.2, 0.25, 0.01),
+            (-3.0, 3.0, 0.1),
+        ] {
+            let mut p = RenderParams::new(cam(
+                [0.0, 0.0, 5.0],
+                [0.0; 3],
+                [0.0, 1.0, 0.0],
+                nc,
+                fc,
+                [5, 5],
+                true,
+            ));
+            p.reference = reference;
+            p.plane_sep = s;
+            p.probe = Probe::Inside;
+            p.blend = Blend::Sum;
+            let sum = render(
+                &RenderSpec::new(p.clone(), None, None, &[]).unwrap(),
+                AnyVolume::F32(vol),
+                KernelName::Tent,
+            );
+            p.blend = Blend::Mean;
+            let mean = render(
+                &RenderSpec::new(p.clone(), None, None, &[]).unwrap(),
+                AnyVolume::F32(vol),
+                KernelName::Tent,
+            );
+            p.probe = Probe::PosView;
+            p.blend = Blend::Sum;
+            let pv = render(
+                &RenderSpec::new(p, None, None, &[]).unwrap(),
+                AnyVolume::F32(vol),
+                KernelName::Tent,
+            );
+            // Planes at z = -nc - k s (world z = 5 - depth), k = 0.. while depth <= fcv.
+            let total = ((fc - nc) / s + 1e-9).floor() as usize + 1;
+            let inside = (0..total)
+                .filter(|k| {
+                    let z = -nc - *k as f64 * s;
+                    z.abs() <= 0.95 + 1e-12
+                })
+                .count();
+            let c = sum[12] as usize;
+            assert_eq!(
+                c, inside,
+                "nc {nc} fc {fc}: {c} inside samples, expected {inside}"
+            );
+            assert!((mean[12] as f64 - inside as f64 / total as f64).abs() < 1e-6);
+            // Sum of the view z over all samples: an arithmetic series.
+            let ncv = 5.0 + nc;
+            let want: f64 = (0..total).map(|k| -(ncv + k as f64 * s)).sum();
+            assert!(
+                (pv[12 * 3 + 2] as f64 - want).abs() < 1e-4 * want.abs(),
+                "{} vs {want}",
+                pv[38]
+            );
+        }
     }
 }
 
@@ -398,142 +421,148 @@ impl ConvoTask for Trace<'_, '_> {
 /// is lerp(dcn, dcf, τ) with τ its relative depth between the planes.
 #[test]
 fn depth_cue_is_linear_in_depth() {
-    let g = grid([20, 20, 20], [0.0; 3]);
-    let (data, itow) = make(11, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
-    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
-    let mut p = RenderParams::new(cam(
-        [1.0, 2.0, 5.0],
-        [0.0; 3],
-        [0.0, 0.0, 1.0],
-        -0.8,
-        0.8,
-        [7, 7],
-        false,
-    ));
-    p.probe = Probe::RgbaLit;
-    p.blend = Blend::Sum;
-    p.plane_sep = 0.05;
-    p.phong = Phong {
-        ka: 1.0,
-        kd: 0.0,
-        ks: 0.0,
-        p: 10.0,
-    };
-    p.dcn = [1.2, 1.0, 0.2];
-    p.dcf = [0.2, 0.5, 0.9];
-    let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-    let samples = dispatch(
-        AnyVolume::F32(vol),
-        KernelName::Tent,
-        Trace {
-            spec: &spec,
-            px: [3, 3],
-        },
-    );
-    let (ncv, fcv) = (spec.camera.ncv, spec.camera.fcv);
-    let mut n = 0;
-    for s in samples.iter().filter(|s| s.counted) {
-        let tau = (-s.pos_v[2] - ncv) / (fcv - ncv);
-        for c in 0..3 {
-            let want = p.dcn[c] as f64 + tau * (p.dcf[c] - p.dcn[c]) as f64;
-            assert!(
-                (s.probe[c] as f64 - want).abs() < 1e-5,
-                "tau {tau}: {:?}",
-                s.probe
-            );
+    for reference in ENGINES {
+        let g = grid([20, 20, 20], [0.0; 3]);
+        let (data, itow) = make(11, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
+        let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
+        let mut p = RenderParams::new(cam(
+            [1.0, 2.0, 5.0],
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            -0.8,
+            0.8,
+            [7, 7],
+            false,
+        ));
+        p.reference = reference;
+        p.probe = Probe::RgbaLit;
+        p.blend = Blend::Sum;
+        p.plane_sep = 0.05;
+        p.phong = Phong {
+            ka: 1.0,
+            kd: 0.0,
+            ks: 0.0,
+            p: 10.0,
+        };
+        p.dcn = [1.2, 1.0, 0.2];
+        p.dcf = [0.2, 0.5, 0.9];
+        let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
+        let samples = dispatch(
+            AnyVolume::F32(vol),
+            KernelName::Tent,
+            Trace {
+                spec: &spec,
+                px: [3, 3],
+            },
+        );
+        let (ncv, fcv) = (spec.camera.ncv, spec.camera.fcv);
+        let mut n = 0;
+        for s in samples.iter().filter(|s| s.counted) {
+            let tau = (-s.pos_v[2] - ncv) / (fcv - ncv);
+            for c in 0..3 {
+                let want = p.dcn[c] as f64 + tau * (p.dcf[c] - p.dcn[c]) as f64;
+                assert!(
+                    (s.probe[c] as f64 - want).abs() < 1e-5,
+                    "tau {tau}: {:?}",
+                    s.probe
+                );
+            }
+            n += 1;
         }
-        n += 1;
+        assert!(n > 20);
     }
-    assert!(n > 20);
 }
 
 /// Blinn-Phong on a sphere: ambient, diffuse and specular terms separately, and the
 /// specular highlight where the half vector is the surface normal.
 #[test]
 fn blinn_phong_on_a_sphere() {
-    let g = Grid {
-        sizes: [64, 64, 64],
-        lengths: [2.0; 3],
-        shear: [0.0; 3],
-        rot: [0.0; 3],
-        centre: [0.0; 3],
-    };
-    let (data, itow) = make(9, &g); // f = -(x²+y²+z²): outward normal N = p/|p|
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    // Opaque from f = -0.36 (radius 0.6) inwards.
-    let a = Txf::new(TxfSpace::Alpha, &[&[-0.37, 0.0], &[-0.36, 1.0]]).unwrap();
-    let lut = Lut::generate(None, Some(&a), false, false, 4096, -3.0, 0.0).unwrap();
-    let ldir = [1.0, 0.5, 1.0];
-    let lights = [Light::new([1.0; 3], ldir, false).unwrap()];
-    let size = 81u32;
-    let mut p = RenderParams::new(cam(
-        [0.0, 0.0, 4.0],
-        [0.0; 3],
-        [0.0, 1.0, 0.0],
-        -1.0,
-        1.0,
-        [size, size],
-        true,
-    ));
-    p.camera.fov = 30.0;
-    p.probe = Probe::RgbaLit;
-    p.blend = Blend::Over;
-    p.plane_sep = 0.002;
-    p.unit_step = 0.002;
-    // Specular only.
-    p.phong = Phong {
-        ka: 0.0,
-        kd: 0.0,
-        ks: 1.0,
-        p: 200.0,
-    };
-    let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-    let img = render(&spec, AnyVolume::F32(vol), KernelName::Bspln3);
-    let red: Vec<f32> = img.chunks(4).map(|c| c[0] * c[3]).collect();
-    let (h, v) = argmax(&red, size);
-    let l = rnd_core::math::v3::normalize(ldir);
-    let hv = rnd_core::math::v3::normalize([l[0], l[1], l[2] + 1.0]);
-    let spot = rnd_core::math::v3::scale(0.6, hv);
-    let (ph, pv) = spec.camera.project(spot);
-    assert!(
-        (h as f64 - ph).abs() <= 1.5 && (v as f64 - pv).abs() <= 1.5,
-        "highlight at ({h},{v}), predicted ({ph:.1},{pv:.1})"
-    );
-    // Ambient only: colour = ka * material everywhere the sphere is.
-    p.phong = Phong {
-        ka: 0.7,
-        kd: 0.0,
-        ks: 0.0,
-        p: 1.0,
-    };
-    let img = render(
-        &RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(),
-        AnyVolume::F32(vol),
-        KernelName::Bspln3,
-    );
-    for c in img.chunks(4).filter(|c| c[3] > 0.0) {
-        assert!((c[0] - 0.7).abs() < 1e-5 && (c[1] - 0.7).abs() < 1e-5);
+    for reference in ENGINES {
+        let g = Grid {
+            sizes: [64, 64, 64],
+            lengths: [2.0; 3],
+            shear: [0.0; 3],
+            rot: [0.0; 3],
+            centre: [0.0; 3],
+        };
+        let (data, itow) = make(9, &g); // f = -(x²+y²+z²): outward normal N = p/|p|
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        // Opaque from f = -0.36 (radius 0.6) inwards.
+        let a = Txf::new(TxfSpace::Alpha, &[&[-0.37, 0.0], &[-0.36, 1.0]]).unwrap();
+        let lut = Lut::generate(None, Some(&a), false, false, 4096, -3.0, 0.0).unwrap();
+        let ldir = [1.0, 0.5, 1.0];
+        let lights = [Light::new([1.0; 3], ldir, false).unwrap()];
+        let size = 81u32;
+        let mut p = RenderParams::new(cam(
+            [0.0, 0.0, 4.0],
+            [0.0; 3],
+            [0.0, 1.0, 0.0],
+            -1.0,
+            1.0,
+            [size, size],
+            true,
+        ));
+        p.reference = reference;
+        p.camera.fov = 30.0;
+        p.probe = Probe::RgbaLit;
+        p.blend = Blend::Over;
+        p.plane_sep = 0.002;
+        p.unit_step = 0.002;
+        // Specular only.
+        p.phong = Phong {
+            ka: 0.0,
+            kd: 0.0,
+            ks: 1.0,
+            p: 200.0,
+        };
+        let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
+        let img = render(&spec, AnyVolume::F32(vol), KernelName::Bspln3);
+        let red: Vec<f32> = img.chunks(4).map(|c| c[0] * c[3]).collect();
+        let (h, v) = argmax(&red, size);
+        let l = rnd_core::math::v3::normalize(ldir);
+        let hv = rnd_core::math::v3::normalize([l[0], l[1], l[2] + 1.0]);
+        let spot = rnd_core::math::v3::scale(0.6, hv);
+        let (ph, pv) = spec.camera.project(spot);
+        assert!(
+            (h as f64 - ph).abs() <= 1.5 && (v as f64 - pv).abs() <= 1.5,
+            "highlight at ({h},{v}), predicted ({ph:.1},{pv:.1})"
+        );
+        // Ambient only: colour = ka * material everywhere the sphere is.
+        p.phong = Phong {
+            ka: 0.7,
+            kd: 0.0,
+            ks: 0.0,
+            p: 1.0,
+        };
+        let img = render(
+            &RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(),
+            AnyVolume::F32(vol),
+            KernelName::Bspln3,
+        );
+        for c in img.chunks(4).filter(|c| c[3] > 0.0) {
+            assert!((c[0] - 0.7).abs() < 1e-5 && (c[1] - 0.7).abs() < 1e-5);
+        }
+        // Diffuse only: the centre pixel (N = view direction) shows kd * (N·L).
+        p.phong = Phong {
+            ka: 0.0,
+            kd: 0.8,
+            ks: 0.0,
+            p: 1.0,
+        };
+        let img = render(
+            &RenderSpec::new(p, Some(&lut), None, &lights).unwrap(),
+            AnyVolume::F32(vol),
+            KernelName::Bspln3,
+        );
+        let centre = px(&img, 4, size, size / 2, size / 2);
+        let want = 0.8 * l[2] as f32;
+        assert!(
+            (centre[0] - want).abs() < 0.01,
+            "diffuse {centre:?} vs {want}"
+        );
     }
-    // Diffuse only: the centre pixel (N = view direction) shows kd * (N·L).
-    p.phong = Phong {
-        ka: 0.0,
-        kd: 0.8,
-        ks: 0.0,
-        p: 1.0,
-    };
-    let img = render(
-        &RenderSpec::new(p, Some(&lut), None, &lights).unwrap(),
-        AnyVolume::F32(vol),
-        KernelName::Bspln3,
-    );
-    let centre = px(&img, 4, size, size / 2, size / 2);
-    let want = 0.8 * l[2] as f32;
-    assert!(
-        (centre[0] - want).abs() < 0.01,
-        "diffuse {centre:?} vs {want}"
-    );
 }
 
 /// Renders with `p` (the accelerated loop and skipping as `p` says) and with the plain
@@ -575,15 +604,27 @@ fn tiny_opacity_over_an_infinite_step_is_transparent() {
             [5, 5],
             ortho,
         ));
+        p.reference = false;
         p.plane_sep = 1.4e114;
         p.unit_step = 3.65;
         p.probe = Probe::RgbaLit;
         p.blend = Blend::Over;
         p.outside = 4.0;
-        let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
+        let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
         let img = render(&spec, sv.vol(), KernelName::Tent);
         assert!(img.iter().all(|x| !x.is_nan()), "{img:?}");
         // Rays through the volume take one sample, inside, with opacity 0.
+        assert!(img.chunks(4).any(|px| px == [0.0; 4]), "{img:?}");
+        // The reference arithmetic (f32) refuses that step; at the largest f32 steps the
+        // exponent step / us is still infinite in f32, and the result is the same.
+        p.reference = true;
+        let e = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap_err();
+        assert!(e.msg.contains("-s 1.4e114"), "{e}");
+        p.plane_sep = 3e38;
+        p.unit_step = 1e-3;
+        let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
+        let img = render(&spec, sv.vol(), KernelName::Tent);
+        assert!(img.iter().all(|x| !x.is_nan()), "{img:?}");
         assert!(img.chunks(4).any(|px| px == [0.0; 4]), "{img:?}");
     }
 }
@@ -616,10 +657,14 @@ proptest::proptest! {
         p.blend = Blend::Over;
         p.outside = f32::NAN;
         let k = KernelName::ALL[ki];
-        let fast = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
-        p.skip_empty = false;
-        let plain = render(&RenderSpec::new(p, Some(&lut), None, &lights).unwrap(), vol, k);
-        proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which}");
+        for reference in ENGINES {
+            p.reference = reference;
+            p.skip_empty = true;
+            let fast = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
+            p.skip_empty = false;
+            let plain = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
+            proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which} -ref {reference}");
+        }
     }
 }
 
@@ -642,6 +687,7 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
         [2, 2],
         true,
     ));
+    p.reference = false;
     p.camera.fov = 1e-14;
     p.plane_sep = 0.01;
     p.probe = Probe::Inside;
@@ -665,7 +711,10 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     assert!(RenderSpec::new(p.clone(), None, None, &[]).is_ok());
     p.reference = true;
     let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
-    assert!(e.msg.contains("-ref: the camera"), "{e}");
+    assert!(
+        e.msg.contains("the camera") && e.msg.contains("-ref false"),
+        "{e}"
+    );
 }
 
 /// Fuzz regression (-ref): a light direction of length ~3e-35 is normalized fine in f64,
@@ -683,12 +732,16 @@ fn tiny_light_direction_under_reference_arithmetic() {
         [4, 4],
         false,
     ));
+    p.reference = false;
     p.probe = Probe::RgbaLit;
     p.blend = Blend::Over;
     assert!(RenderSpec::new(p.clone(), Some(&lut), None, &lights).is_ok());
     p.reference = true;
     let e = RenderSpec::new(p, Some(&lut), None, &lights).unwrap_err();
-    assert!(e.msg.contains("-ref: light 1"), "{e}");
+    assert!(
+        e.msg.contains("light 1") && e.msg.contains("-ref false"),
+        "{e}"
+    );
 }
 
 /// Fuzz regression: a negative specular exponent with ks = 0 gave 0 · ∞ = NaN; negative
@@ -734,113 +787,116 @@ fn negative_specular_exponent_is_refused() {
 /// per-sample probe values the trace reports (probing and blending are orthogonal).
 #[test]
 fn every_probe_blend_pair_blends_its_samples() {
-    let g = Grid {
-        sizes: [30, 30, 30],
-        lengths: [4.0; 3],
-        shear: [0.0; 3],
-        rot: [0.1, 0.0, 0.2],
-        centre: [0.0; 3],
-    };
-    let (data, itow) = make(2, &g);
-    let vol = Volume::new(&data, g.sizes, itow).unwrap();
-    let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.4]]).unwrap();
-    let c = Txf::new(
-        TxfSpace::Rgb,
-        &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 1.0, 0.5]],
-    )
-    .unwrap();
-    let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
-    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
-    let mut checked = 0;
-    for probe in Probe::ALL {
-        for blend in rnd_core::blend::Blend::ALL {
-            if blend == Blend::Over && !probe.is_colour() {
-                continue;
-            }
-            let mut p = RenderParams::new(cam(
-                [6.0, 12.0, 5.0],
-                [0.0; 3],
-                [0.0, 0.0, 1.0],
-                -2.5,
-                2.5,
-                [9, 9],
-                false,
-            ));
-            p.probe = probe;
-            p.blend = blend;
-            p.plane_sep = 0.1;
-            p.unit_step = 0.2;
-            p.outside = -7.0;
-            let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
-            let img = render(&spec, AnyVolume::F32(vol), KernelName::Ctmr);
-            let len = probe.length();
-            for (h, v) in [(4, 4), (0, 0), (2, 6)] {
-                let samples = dispatch(
-                    AnyVolume::F32(vol),
-                    KernelName::Ctmr,
-                    Trace {
-                        spec: &spec,
-                        px: [h, v],
-                    },
-                );
-                let counted: Vec<[f32; 4]> = samples
-                    .iter()
-                    .filter(|s| s.counted)
-                    .map(|s| s.probe)
-                    .collect();
-                // Everywhere-defined probes count every sample.
-                if probe.everywhere() {
-                    assert_eq!(counted.len(), samples.len());
+    for reference in ENGINES {
+        let g = Grid {
+            sizes: [30, 30, 30],
+            lengths: [4.0; 3],
+            shear: [0.0; 3],
+            rot: [0.1, 0.0, 0.2],
+            centre: [0.0; 3],
+        };
+        let (data, itow) = make(2, &g);
+        let vol = Volume::new(&data, g.sizes, itow).unwrap();
+        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.4]]).unwrap();
+        let c = Txf::new(
+            TxfSpace::Rgb,
+            &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 1.0, 0.5]],
+        )
+        .unwrap();
+        let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
+        let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
+        let mut checked = 0;
+        for probe in Probe::ALL {
+            for blend in rnd_core::blend::Blend::ALL {
+                if blend == Blend::Over && !probe.is_colour() {
+                    continue;
                 }
-                let mut want = [0.0f32; 4];
-                if counted.is_empty() {
-                    want = [-7.0; 4];
-                } else {
-                    match blend {
-                        Blend::Max => {
-                            for c in 0..len {
-                                want[c] = counted.iter().map(|x| x[c]).fold(f32::MIN, f32::max);
-                            }
-                        }
-                        Blend::Sum | Blend::Mean => {
-                            for c in 0..len {
-                                want[c] = counted.iter().map(|x| x[c]).sum();
-                                if blend == Blend::Mean {
-                                    want[c] /= counted.len() as f32;
+                let mut p = RenderParams::new(cam(
+                    [6.0, 12.0, 5.0],
+                    [0.0; 3],
+                    [0.0, 0.0, 1.0],
+                    -2.5,
+                    2.5,
+                    [9, 9],
+                    false,
+                ));
+                p.reference = reference;
+                p.probe = probe;
+                p.blend = blend;
+                p.plane_sep = 0.1;
+                p.unit_step = 0.2;
+                p.outside = -7.0;
+                let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
+                let img = render(&spec, AnyVolume::F32(vol), KernelName::Ctmr);
+                let len = probe.length();
+                for (h, v) in [(4, 4), (0, 0), (2, 6)] {
+                    let samples = dispatch(
+                        AnyVolume::F32(vol),
+                        KernelName::Ctmr,
+                        Trace {
+                            spec: &spec,
+                            px: [h, v],
+                        },
+                    );
+                    let counted: Vec<[f32; 4]> = samples
+                        .iter()
+                        .filter(|s| s.counted)
+                        .map(|s| s.probe)
+                        .collect();
+                    // Everywhere-defined probes count every sample.
+                    if probe.everywhere() {
+                        assert_eq!(counted.len(), samples.len());
+                    }
+                    let mut want = [0.0f32; 4];
+                    if counted.is_empty() {
+                        want = [-7.0; 4];
+                    } else {
+                        match blend {
+                            Blend::Max => {
+                                for c in 0..len {
+                                    want[c] = counted.iter().map(|x| x[c]).fold(f32::MIN, f32::max);
                                 }
                             }
-                        }
-                        Blend::Over => {
-                            let (mut col, mut al) = ([0.0f32; 3], 0.0f32);
-                            for x in &counted {
-                                let t = (1.0 - al) * x[3];
+                            Blend::Sum | Blend::Mean => {
+                                for c in 0..len {
+                                    want[c] = counted.iter().map(|x| x[c]).sum();
+                                    if blend == Blend::Mean {
+                                        want[c] /= counted.len() as f32;
+                                    }
+                                }
+                            }
+                            Blend::Over => {
+                                let (mut col, mut al) = ([0.0f32; 3], 0.0f32);
+                                for x in &counted {
+                                    let t = (1.0 - al) * x[3];
+                                    for c in 0..3 {
+                                        col[c] += t * x[c];
+                                    }
+                                    al += t;
+                                }
                                 for c in 0..3 {
-                                    col[c] += t * x[c];
+                                    want[c] = if al > 0.0 { col[c] / al } else { 0.0 };
                                 }
-                                al += t;
+                                want[3] = al;
                             }
-                            for c in 0..3 {
-                                want[c] = if al > 0.0 { col[c] / al } else { 0.0 };
-                            }
-                            want[3] = al;
                         }
                     }
+                    let got = px(&img, len, 9, h, v);
+                    for c in 0..len {
+                        let tol = 1e-5 * (1.0 + want[c].abs());
+                        assert!(
+                            (got[c] - want[c]).abs() <= tol,
+                            "{probe}/{blend} ({h},{v}) ch {c}: {} vs {}",
+                            got[c],
+                            want[c]
+                        );
+                    }
+                    checked += 1;
                 }
-                let got = px(&img, len, 9, h, v);
-                for c in 0..len {
-                    let tol = 1e-5 * (1.0 + want[c].abs());
-                    assert!(
-                        (got[c] - want[c]).abs() <= tol,
-                        "{probe}/{blend} ({h},{v}) ch {c}: {} vs {}",
-                        got[c],
-                        want[c]
-                    );
-                }
-                checked += 1;
             }
         }
+        assert_eq!(checked, 3 * (9 * 3 + 2));
     }
-    assert_eq!(checked, 3 * (9 * 3 + 2));
 }
 
 /// The scene of the loop-equivalence properties: a LUT, Levoy opacity and a light for a
@@ -944,14 +1000,19 @@ proptest::proptest! {
         let (probe, blend) = (p.probe, p.blend);
         let lev = if levoy { Some(&lev) } else { None };
         let k = KernelName::ALL[ki];
-        let Some((fast, plain)) = fast_and_plain(p, &lut, lev, &lights, vol, k) else {
-            // Up vector parallel to the view direction: nothing to compare.
-            return Ok(());
-        };
-        proptest::prop_assert!(
-            fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{k} {probe} {blend}: {fast:?} vs {plain:?}"
-        );
+        for reference in ENGINES {
+            let mut p = p.clone();
+            p.reference = reference;
+            let Some((fast, plain)) = fast_and_plain(p, &lut, lev, &lights, vol, k) else {
+                // Up vector parallel to the view direction, or (reference arithmetic) a
+                // camera beyond f32: nothing to compare.
+                continue;
+            };
+            proptest::prop_assert!(
+                fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{k} {probe} {blend} -ref {reference}: {fast:?} vs {plain:?}"
+            );
+        }
     }
     /// Empty-space skipping over wide empty regions: an impulse or a thin spherical
     /// shell in a volume of several skip blocks per axis, so rays jump across boxes of
@@ -982,14 +1043,18 @@ proptest::proptest! {
         p.probe = if lit { Probe::RgbaLit } else { Probe::Rgba };
         p.blend = Blend::Over;
         let k = KernelName::ALL[ki];
-        let Some((fast, plain)) = fast_and_plain(p, &lut, None, &lights, vol, k) else {
-            return Ok(());
-        };
-        proptest::prop_assert!(fast.iter().any(|&x| x > 0.0) || plain.iter().all(|&x| x == 0.0));
-        proptest::prop_assert!(
-            fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{k}: {fast:?} vs {plain:?}"
-        );
+        for reference in ENGINES {
+            let mut p = p.clone();
+            p.reference = reference;
+            let Some((fast, plain)) = fast_and_plain(p, &lut, None, &lights, vol, k) else {
+                continue;
+            };
+            proptest::prop_assert!(fast.iter().any(|&x| x > 0.0) || plain.iter().all(|&x| x == 0.0));
+            proptest::prop_assert!(
+                fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{k} -ref {reference}: {fast:?} vs {plain:?}"
+            );
+        }
     }
 }
 
