@@ -499,7 +499,7 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
 }
 
 /// Samples convolved together by [`Lanes::convolve`].
-pub const LANES: usize = 8;
+pub const LANES: usize = 16;
 
 /// Up to [`LANES`] samples convolved together in reference arithmetic: every lane does
 /// exactly the operations of [`convolve`] for its sample (so the same bits), and the
@@ -717,49 +717,61 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
     dw: &[[[f32; LANES]; S]; 3],
 ) -> [[f32; LANES]; 4] {
     use core::arch::x86_64::*;
-    assert!(S == 4 && LANES == 8);
+    // Registers of eight lanes each; their chains are independent, so with two the
+    // additions of one hide the latency of the other's.
+    const H: usize = LANES / 8;
+    assert!(S == 4 && LANES.is_multiple_of(8));
     let sz = vol.sizes();
     let (s0, s01) = (sz[0], sz[0] * sz[1]);
     let ptr = vol.data().as_ptr();
-    let ld = |v: &[f32; LANES]| {
-        // SAFETY: eight readable floats.
-        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    let ld = |v: &[f32; LANES], h: usize| {
+        // SAFETY: eight readable floats from lane 8 h on.
+        unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * h)) }
     };
-    let mut val = _mm256_setzero_ps();
-    let (mut g0, mut g1, mut g2) = (val, val, val);
+    let zero = _mm256_setzero_ps();
+    let mut val = [zero; H];
+    let (mut g0, mut g1, mut g2) = ([zero; H], [zero; H], [zero; H]);
     for k in 0..S {
-        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
         for j in 0..S {
-            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
             let o = j * s0 + k * s01;
-            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
-            let row =
-                |l: usize| unsafe { V::load4x2([ptr.add(base[l] + o), ptr.add(base[l + 4] + o)]) };
-            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-            let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
-            let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
-            let x = [
-                _mm256_shuffle_ps::<0x44>(t0, t2),
-                _mm256_shuffle_ps::<0xEE>(t0, t2),
-                _mm256_shuffle_ps::<0x44>(t1, t3),
-                _mm256_shuffle_ps::<0xEE>(t1, t3),
-            ];
+            // Rows of lanes l and l + 4 of register h, transposed into lanes.
+            let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
+                // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
+                let row = |l: usize| unsafe {
+                    V::load4x2([ptr.add(base[8 * h + l] + o), ptr.add(base[8 * h + l + 4] + o)])
+                };
+                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
+                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
+                [
+                    _mm256_shuffle_ps::<0x44>(t0, t2),
+                    _mm256_shuffle_ps::<0xEE>(t0, t2),
+                    _mm256_shuffle_ps::<0x44>(t1, t3),
+                    _mm256_shuffle_ps::<0xEE>(t1, t3),
+                ]
+            });
             for i in 0..S {
-                let xw0 = _mm256_mul_ps(x[i], ld(&w[0][i]));
-                val = _mm256_add_ps(val, _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
-                if G {
-                    let xd0 = _mm256_mul_ps(x[i], ld(&dw[0][i]));
-                    g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
-                    g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
-                    g2 = _mm256_add_ps(g2, _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
+                for h in 0..H {
+                    let (w1, w2) = (ld(&w[1][j], h), ld(&w[2][k], h));
+                    let xw0 = _mm256_mul_ps(x[h][i], ld(&w[0][i], h));
+                    val[h] = _mm256_add_ps(val[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
+                    if G {
+                        let (d1, d2) = (ld(&dw[1][j], h), ld(&dw[2][k], h));
+                        let xd0 = _mm256_mul_ps(x[h][i], ld(&dw[0][i], h));
+                        g0[h] = _mm256_add_ps(g0[h], _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
+                        g1[h] = _mm256_add_ps(g1[h], _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
+                        g2[h] = _mm256_add_ps(g2[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
+                    }
                 }
             }
         }
     }
     let mut r = [[0.0f32; LANES]; 4];
     for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
-        // SAFETY: eight writable floats.
-        unsafe { _mm256_storeu_ps(dst.as_mut_ptr(), v) };
+        for (h, v) in v.into_iter().enumerate() {
+            // SAFETY: eight writable floats from lane 8 h on.
+            unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
+        }
     }
     r
 }
