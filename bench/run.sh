@@ -2,14 +2,16 @@
 # rendr vs Teem, same machine, same run: samples per second of teem-mrender and
 # rendr go (value/max and gradmag/max; tent, bspln3, c4hexic), frame time of
 # teem-miter and rendr go for an over + lit colour rendering, with 1 and 2 threads,
-# plus how rendr's cost grows with pixels and samples per ray, and the reference
-# arithmetic (go -ref) against both.
+# plus how rendr's cost grows with pixels and samples per ray, and rendr's two engines
+# (the default reference arithmetic and -ref false, the f64 engine) against Teem.
 # Usage: bench/run.sh   (prints markdown; needs teem-apps and ../shared)
-#        ONLY=ref bench/run.sh   (only the -ref section)
+#        ONLY=ref bench/run.sh   (only the engines section)
+#        ENGINE=false bench/run.sh   (the main sections with go -ref false)
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 (cd "$top" && cargo build --release -q -p rendr)
 R="$top/target/release/rendr"
+ENGINE=${ENGINE:-true}
 CT="$top/../shared/volumes/imageio-stent-ct.nrrd"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -65,6 +67,7 @@ echo "## Machine"
 echo
 echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"
 echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
+echo "- go engine in the main sections: -ref $ENGINE"
 echo
 if [ "${ONLY:-all}" = all ]; then
 echo "## Samples per second, teem-mrender vs rendr go (orthographic, ${SZ}x${SZ}, $N samples per ray = $samples samples; whole commands, best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
@@ -82,7 +85,7 @@ for v in ct syn; do
              -dn -130 -di 0 -df 130 -ur -130 130 -vr -130 130 -is $SZ $SZ \
              -k00 $k -k11 ${k}d -k22 zero -q $q -m max -step $STEP -nt $nt -o t.nrrd" \
           "$R go -i ${VOL[$v]} -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
-             -fov $fov -sz $SZ $SZ -k $k -p $q -b max -s $STEP -nt $nt -sp false -o r.nrrd")
+             -fov $fov -sz $SZ $SZ -k $k -p $q -b max -s $STEP -nt $nt -ref $ENGINE -sp false -o r.nrrd")
         awk -v v="$v" -v k="$k" -v q="$q" -v nt="$nt" -v tt="$tt" -v rt="$rt" -v n="$samples" 'BEGIN {
           printf "| %s | %s | %s/max | %d | %.3f | %.3f | %.1f | %.1f | %.1fx |\n", v, k, q, nt, tt, rt, n / tt / 1e6, n / rt / 1e6, tt / rt }'
       done
@@ -113,7 +116,7 @@ for v in ct syn; do
   fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
   for q in v gm; do
     go=(go -i "${VOL[$v]}" -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
-        -fov "$fov" -sz $SZ $SZ -k bspln3 -p $q -b max -s $STEP -sp false)
+        -fov "$fov" -sz $SZ $SZ -k bspln3 -p $q -b max -s $STEP -ref "$ENGINE" -sp false)
     # 1- and 2-thread runs and the control alternate (so slow drifts of this shared
     # machine hit all three); best of ROUNDS2 each.
     b1=1e9; b2=1e9; bp=1e9
@@ -156,7 +159,7 @@ for k in tent bspln3; do
          -n1 0.99 -ld 0 0 1 -ads 0.2 0.8 0.1 -sp 150 -nt $nt -o t.nrrd" \
       "$R go -i $CT -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov $fov \
          -sz $SZ $SZ -k $k -p rgbalit -b over -s $STEP -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt \
-         -ph 0.2 0.8 0.1 150 -nt $nt -sp false -o r.nrrd")
+         -ph 0.2 0.8 0.1 150 -nt $nt -ref $ENGINE -sp false -o r.nrrd")
     awk -v k="$k" -v nt="$nt" -v tt="$tt" -v rt="$rt" 'BEGIN { printf "| %s | %d | %.3f | %.3f | %.1fx |\n", k, nt, tt, rt, tt / rt }'
   done
 done
@@ -173,7 +176,7 @@ for cfg in "128 1" "256 1" "512 1" "256 2" "256 0.5" "256 0.25"; do
   n=$(awk -v s="$2" 'BEGIN { print int(260 / s + 1e-9) + 1 }')
   ns=$(( $1 * $1 * n ))
   args=(go -i "$CT" -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov"
-        -sz $1 $1 -k bspln3 -p v -b max -s $2 -nt 1 -sp false -o r.nrrd)
+        -sz $1 $1 -k bspln3 -p v -b max -s $2 -nt 1 -ref "$ENGINE" -sp false -o r.nrrd)
   rt=$(best "$R" "${args[@]}")
   rr=1e9
   for _ in 1 2 3; do
@@ -185,10 +188,10 @@ done
 fi
 
 echo
-echo "## Reference arithmetic: rendr go -ref vs Teem and the default engine (bspln3, 1 thread; best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
+echo "## Engines: rendr go (default: the reference arithmetic) and go -ref false (the f64 engine) vs Teem (bspln3, 1 thread; best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
 echo
-echo "| volume | rendering | Teem s | rendr s | rendr -ref s | Teem / -ref | -ref / default |"
-echo "|---|---|---|---|---|---|---|"
+echo "| volume | rendering | Teem s | rendr s | rendr -ref false s | Teem / rendr | Teem / -ref false | rendr / -ref false |"
+echo "|---|---|---|---|---|---|---|---|"
 if [ "${ONLY:-all}" != all ]; then
   printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
   printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
@@ -206,9 +209,9 @@ for v in ct syn; do
     go="$R go -i ${VOL[$v]} -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
         -fov $fov -sz $SZ $SZ -k bspln3 -p $q -b max -s $STEP -nt 1 -sp false -o r.nrrd"
     read -r tt rt < <(pair "$mr" "$go")
-    read -r _ ft < <(pair "$mr" "$go -ref")
+    read -r _ ft < <(pair "$mr" "$go -ref false")
     awk -v v="$v" -v q="$q" -v tt="$tt" -v rt="$rt" -v ft="$ft" 'BEGIN {
-      printf "| %s | %s/max | %.3f | %.3f | %.3f | %.1fx | %.2fx |\n", v, q, tt, rt, ft, tt / ft, ft / rt }'
+      printf "| %s | %s/max | %.3f | %.3f | %.3f | %.1fx | %.1fx | %.2fx |\n", v, q, tt, rt, ft, tt / rt, tt / ft, rt / ft }'
   done
 done
 at=(${AT[ct]})
@@ -220,6 +223,6 @@ go="$R go -i $CT -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov $f
     -sz $SZ $SZ -k bspln3 -p rgbalit -b over -s $STEP -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt \
     -ph 0.2 0.8 0.1 150 -nt 1 -sp false -o r.nrrd"
 read -r tt rt < <(REPS=6 pair "$mi" "$go")
-read -r _ ft < <(REPS=6 pair "$mi" "$go -ref")
+read -r _ ft < <(REPS=6 pair "$mi" "$go -ref false")
 awk -v tt="$tt" -v rt="$rt" -v ft="$ft" 'BEGIN {
-  printf "| ct | rgbalit/over (teem-miter) | %.3f | %.3f | %.3f | %.1fx | %.2fx |\n", tt, rt, ft, tt / ft, ft / rt }'
+  printf "| ct | rgbalit/over (teem-miter) | %.3f | %.3f | %.3f | %.1fx | %.1fx | %.2fx |\n", tt, rt, ft, tt / rt, tt / ft, rt / ft }'
