@@ -1,8 +1,9 @@
 //! Fuzzes a tiny render: camera, LUT, probe, blend, kernel and parameters come from the
 //! input. Validation may refuse them; what it accepts must render without panicking and
 //! give finite output unless NaN was asked for (outside value), and the accelerated loop
-//! must give exactly the plain loop's image. The same for the reference arithmetic
-//! (`-ref`): finite output, and its batched loop gives the one-sample loop's image.
+//! must give exactly the plain loop's image (the f64 engine, `-ref false`). The same for
+//! the reference arithmetic (the default): finite output, and its batched loop gives the
+//! one-sample loop's image.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -67,6 +68,8 @@ fuzz_target!(|data: &[u8]| {
         ortho: b.u8() % 2 == 0,
     };
     let mut p = RenderParams::new(camera);
+    // First the f64 engine (`-ref false`), then the reference arithmetic (the default).
+    p.reference = false;
     p.plane_sep = b.f64().abs() / 10.0;
     p.sample_once = b.u8() % 7 == 0;
     p.probe = Probe::ALL[(b.u8() % 9) as usize];

@@ -1,11 +1,12 @@
-//! Reference arithmetic (`go -ref`): the course reference program's own f32 operation
-//! sequence, so that renderings agree with its images bit for bit where possible.
+//! Reference arithmetic (`go`'s default engine, `-ref true`): the course reference
+//! program's own f32 operation sequence, so that renderings agree with its images bit
+//! for bit where possible.
 //!
 //! The reference computed everything in `float` (SPEC D15), and float results depend on
 //! the order of every operation. The sequence below was recovered by experiment against
 //! `cube-rgb.nrrd` (`docs/VERIFICATION.md`, "Reference arithmetic"): each choice here is
 //! the one under which that image is reproduced (87,000 of its 89,600 pixels bit for
-//! bit, the rest within 2.1e-6; none of the LUT bin flips the default engine shows).
+//! bit, the rest within 2.1e-6; none of the LUT bin flips the f64 engine shows).
 //!
 //! * Camera (f32): d = √(diff·diff), n = (1/d)·diff, u = (1/|up × n|)·(up × n),
 //!   v = n × u, ncv = d + nc, fcv = d + fc, hght = 2·d·tan(π·fov/360), wdth = ar·hght.
@@ -26,10 +27,10 @@
 //!   (L + V)·(1/|L + V|) with V = −s·(1/|s|) for the world step s; `over` keeps the
 //!   transparency T: C += T·α·rgb, T ·= 1 − α, and the pixel is C/(1 − T), 1 − T.
 //!
-//! [`Block`] and [`Lanes`] run eight samples side by side, each lane doing exactly the
-//! one-sample operations; the running sums still cost about 9 multiplies and 4 adds per
-//! support sample (the default engine sums separably), so `-ref` takes 1.2–3.7× the
-//! default engine's time.
+//! [`inside_span`] bounds the samples of a ray that can be inside the volume; [`Block`]
+//! and [`Lanes`] run sixteen samples side by side, each lane doing exactly the
+//! one-sample operations. The running sums still cost about 9 multiplies and 4 adds per
+//! support sample (the f64 engine, `-ref false`, sums separably and is quicker).
 
 use crate::affine::Affine4;
 use crate::camera::CameraSpec;
@@ -584,6 +585,12 @@ impl<const S: usize> Lanes<S> {
         out: &mut [[f32; 4]; LANES],
     ) {
         #[cfg(target_arch = "x86_64")]
+        if S == 4 && crate::avx::avx512_enabled() {
+            // SAFETY: the processor and operating system support AVX-512F.
+            unsafe { self.convolve_avx512::<V, K, G>(vol, out) };
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
         if crate::avx::avx2_enabled() {
             // SAFETY: the processor and operating system support AVX2.
             unsafe { self.convolve_avx2::<V, K, G>(vol, out) };
@@ -592,7 +599,24 @@ impl<const S: usize> Lanes<S> {
         self.convolve_lanes::<V, K, G>(vol, out);
     }
 
-    /// [`Lanes::convolve`] compiled for AVX2 (eight lanes in one register; the same
+    /// [`Lanes::convolve`] for support 4 compiled for AVX-512F: all sixteen lanes in one
+    /// register (the same operations, no fused multiply-add), rows of four voxels read
+    /// four lanes per load and transposed into lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn convolve_avx512<V: Voxel, K: Kernel<S>, const G: bool>(
+        &self,
+        vol: &Volume<'_, V>,
+        out: &mut [[f32; 4]; LANES],
+    ) {
+        let (w, dw, base) = self.setup::<V, K, G>(vol);
+        // SAFETY: AVX-512F is enabled here, S is 4 (caller), and `setup` checked every
+        // lane's support.
+        let sums = unsafe { sums4_avx512::<V, S, G>(vol, &base, &w, &dw) };
+        store(&sums, out);
+    }
+
+    /// [`Lanes::convolve`] compiled for AVX2 (eight lanes per register; the same
     /// operations, no fused multiply-add). Support 4 reads each lane's rows of four
     /// voxels with one load and transposes them into lanes.
     #[cfg(target_arch = "x86_64")]
@@ -738,7 +762,10 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
             let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
                 // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
                 let row = |l: usize| unsafe {
-                    V::load4x2([ptr.add(base[8 * h + l] + o), ptr.add(base[8 * h + l + 4] + o)])
+                    V::load4x2([
+                        ptr.add(base[8 * h + l] + o),
+                        ptr.add(base[8 * h + l + 4] + o),
+                    ])
                 };
                 let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
                 let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
@@ -772,6 +799,76 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
             // SAFETY: eight writable floats from lane 8 h on.
             unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
         }
+    }
+    r
+}
+
+/// [`sums4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
+/// rows each (lanes l, l + 4, l + 8 and l + 12 in the four 128-bit parts, see
+/// [`Voxel::load4x4`]) and a 4 × 4 transpose in each part give each row element for all
+/// lanes in order; the arithmetic per lane is [`sums_lanes`]'s.
+///
+/// # Safety
+/// The CPU must support AVX-512F, `S` must be 4, and every lane's support (from `base`)
+/// must lie in the volume's data.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
+    vol: &Volume<'_, V>,
+    base: &[usize; LANES],
+    w: &[[[f32; LANES]; S]; 3],
+    dw: &[[[f32; LANES]; S]; 3],
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    assert!(S == 4 && LANES == 16);
+    let sz = vol.sizes();
+    let (s0, s01) = (sz[0], sz[0] * sz[1]);
+    let ptr = vol.data().as_ptr();
+    let ld = |v: &[f32; LANES]| {
+        // SAFETY: sixteen readable floats.
+        unsafe { _mm512_loadu_ps(v.as_ptr()) }
+    };
+    let mut val = _mm512_setzero_ps();
+    let (mut g0, mut g1, mut g2) = (val, val, val);
+    for k in 0..S {
+        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+        for j in 0..S {
+            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
+            let o = j * s0 + k * s01;
+            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
+            let row = |l: usize| unsafe {
+                V::load4x4([
+                    ptr.add(base[l] + o),
+                    ptr.add(base[l + 4] + o),
+                    ptr.add(base[l + 8] + o),
+                    ptr.add(base[l + 12] + o),
+                ])
+            };
+            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+            let (t0, t1) = (_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
+            let (t2, t3) = (_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
+            let x = [
+                _mm512_shuffle_ps::<0x44>(t0, t2),
+                _mm512_shuffle_ps::<0xEE>(t0, t2),
+                _mm512_shuffle_ps::<0x44>(t1, t3),
+                _mm512_shuffle_ps::<0xEE>(t1, t3),
+            ];
+            for (i, &xi) in x.iter().enumerate() {
+                let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
+                val = _mm512_add_ps(val, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), w2));
+                if G {
+                    let xd0 = _mm512_mul_ps(xi, ld(&dw[0][i]));
+                    g0 = _mm512_add_ps(g0, _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
+                    g1 = _mm512_add_ps(g1, _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
+                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), d2));
+                }
+            }
+        }
+    }
+    let mut r = [[0.0f32; LANES]; 4];
+    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
+        // SAFETY: sixteen writable floats.
+        unsafe { _mm512_storeu_ps(dst.as_mut_ptr(), v) };
     }
     r
 }
@@ -1005,7 +1102,7 @@ mod lane_tests {
     }
 
     /// Lanes give exactly `convolve`'s bits, for every kernel, both voxel types, with
-    /// and without AVX2.
+    /// AVX-512 (where the processor has it), AVX2 only, and neither.
     #[test]
     fn lanes_are_convolve_bit_for_bit() {
         let sz = [11usize, 9, 13];
@@ -1013,8 +1110,12 @@ mod lane_tests {
         let mut rng = Lcg(5);
         let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();
         let s: Vec<i16> = f.iter().map(|&x| x as i16).collect();
-        for avx in [true, false] {
-            crate::avx::set_avx2(avx);
+        // AVX-512 (where the processor has it), AVX2 only, and no AVX.
+        for level in [2, 1, 0] {
+            crate::avx::set_avx2(level > 0);
+            if level == 1 {
+                crate::avx::set_avx512(false);
+            }
             all_kernels(&f, sz);
             all_kernels(&s, sz);
         }

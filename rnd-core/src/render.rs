@@ -594,7 +594,7 @@ impl RenderSpec<'_> {
     /// ([`crate::refarith`]; `params.reference`). Skipping empty blocks (`over` only) is
     /// exact here too: such a sample has opacity 0, which leaves T and C unchanged.
     /// Without a trace, with `params.fast_loop` and a probe read from the convolution,
-    /// samples go through the batched loop (eight at a time); otherwise one at a time.
+    /// samples go through the batched loop (sixteen at a time); otherwise one at a time.
     /// Both give the same bits.
     pub fn cast_ref<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,

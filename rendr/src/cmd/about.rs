@@ -29,8 +29,9 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          \n\
          Commands: run \"rendr\" alone for the list; \"rendr <cmd> --help\" for options.\n\
          \n\
-         Build: {} build, {}-bit {}, debug assertions {}; geometry in f64, convolution\n\
-         and blending in f32 (\"real == float\", like the reference).\n\
+         Build: {} build, {}-bit {}, debug assertions {}. go computes like the\n\
+         reference, all in f32 (\"real == float\"), in its order of operations;\n\
+         with -ref false, geometry in f64 and convolution and blending in f32.\n\
          Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.\n\
          Vector paths in use: {} (same images with any; RND_AVX2=0 or RND_AVX512=0\n\
          turn the wider ones off).",
