@@ -703,7 +703,7 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     p.plane_sep = 0.01;
     let e = RenderSpec::new(p.clone(), None, None, &[]).unwrap_err();
     assert!(e.msg.contains("coincide"), "{e}");
-    // Fuzz regression (-ref): at 5e15 the planes are distinct in f64 but not in f32,
+    // Fuzz regression (reference arithmetic): at 5e15 the planes are distinct in f64 but not in f32,
     // where the depth cue divided 0 by 0. The reference arithmetic refuses the camera.
     p.camera.fr = [0.0, 0.0, 5e15];
     p.dcn = [0.6; 3];
@@ -717,8 +717,8 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     );
 }
 
-/// Fuzz regression (-ref): a light direction of length ~3e-35 is normalized fine in f64,
-/// but its squared length underflows in f32 and lighting gave NaN; -ref refuses it.
+/// Fuzz regression (reference arithmetic): a light direction of length ~3e-35 is normalized fine in f64,
+/// but its squared length underflows in f32 and lighting gave NaN; that engine refuses it.
 #[test]
 fn tiny_light_direction_under_reference_arithmetic() {
     let lut = constant_lut([0.5, 0.5, 0.5, 0.5]);
@@ -1086,10 +1086,10 @@ impl ConvoTask for TracedImage<'_, '_> {
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 48, .. Default::default() })]
 
-    /// `-ref`: the batched loop (samples convolved eight at a time, empty blocks
-    /// skipped) gives exactly the one-sample reference loop's image, for every kernel,
-    /// probe, blend, voxel type and camera kind, one-sample rays, early termination and
-    /// Levoy opacity.
+    /// The reference arithmetic: the batched loop (samples convolved sixteen at a time,
+    /// empty blocks and each ray's outside stretch skipped) gives exactly the traced
+    /// one-sample loop's image, for every kernel, probe, blend, voxel type and camera
+    /// kind, one-sample rays, early termination and Levoy opacity.
     #[test]
     fn reference_lanes_are_exact(
         which in proptest::sample::select(vec![2u32, 9, 12, 13]),

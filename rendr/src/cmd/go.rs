@@ -159,7 +159,7 @@ pub static SPEC: CmdSpec = CmdSpec {
                 "true",
                 "bool",
                 "accelerated ray loop: sample only each ray's inside stretch, batched \
-                 (exact; false = the plain reference loop)",
+                 (exact; false = the plain one-sample loop)",
             ),
             def(
                 &["ref"],
@@ -169,7 +169,7 @@ pub static SPEC: CmdSpec = CmdSpec {
                 "reference arithmetic: the course reference program's f32 operation \
                  order (camera, ray steps, kernel formulas, summation), which \
                  reproduces its images bit for bit where possible; false = the f64-geometry \
-                 engine with separable sums, 1.2-3.7x quicker, within 1e-4 relative",
+                 engine with separable sums, 1.65-2.2x quicker, within 1e-4 relative",
             ),
             opt(&["q"], 2, "min max", "quantization range for PNG output"),
             opt(
