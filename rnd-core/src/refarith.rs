@@ -463,7 +463,7 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
     let wmag: [f64; 3] = core::array::from_fn(|r| {
         f(u[r]).abs() * pmax[0] + f(v[r]).abs() * pmax[1] + f(n[r]).abs() * pmax[2] + f(fr[r]).abs()
     });
-    let unit = f64::powi(2.0, -24);
+    let unit = 1.0 / (1u32 << 24) as f64;
     let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
     let sz = vol.sizes();
     let (mut lo, mut hi) = (0.0f64, kmax_f);
@@ -491,8 +491,8 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
         lo = lo.max(k_a.min(k_b));
         hi = hi.min(k_a.max(k_b));
     }
-    let first = (lo.floor() - 1.0).max(0.0);
-    let last = (hi.ceil() + 1.0).min(kmax_f);
+    let first = (math::floor(lo) - 1.0).max(0.0);
+    let last = (math::ceil(hi) + 1.0).min(kmax_f);
     if first > last {
         return None;
     }
