@@ -59,7 +59,7 @@ pub struct RenderParams {
     pub fast_loop: bool,
     /// Compute in the course reference program's f32 arithmetic (`-ref`, the default;
     /// [`crate::refarith`]), which reproduces the reference's images. `false` selects
-    /// the fast engine (f64 geometry, separable SIMD sums): 1.2–3.7× quicker, within
+    /// the f64 engine (f64 geometry, separable SIMD sums): 1.65–2.2× quicker, within
     /// 1e-4 relative of the reference arithmetic but not its bits. The reference
     /// arithmetic needs volumes of at most [`refarith::MAX_AXIS`] samples per axis and a
     /// camera, lights and steps that f32 can hold ([`RenderSpec::new`] checks the last).
