@@ -116,12 +116,12 @@ fn px(img: &[f32], ch: usize, w: u32, h: u32, v: u32) -> &[f32] {
 /// samples) × step length.
 #[test]
 fn constant_medium_over_opacity() {
+    let g = grid([20, 20, 20], [0.0; 3]);
+    let (data, itow) = make(11, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let alpha = 0.3f32;
+    let lut = constant_lut([1.0, 1.0, 1.0, alpha]);
     for reference in ENGINES {
-        let g = grid([20, 20, 20], [0.0; 3]);
-        let (data, itow) = make(11, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        let alpha = 0.3f32;
-        let lut = constant_lut([1.0, 1.0, 1.0, alpha]);
         for (ortho, us, s) in [(true, 0.1, 0.01), (false, 0.05, 0.02), (true, 1.0, 0.003)] {
             let mut p = RenderParams::new(cam(
                 [0.3, 0.2, 5.0],
@@ -177,24 +177,24 @@ fn constant_medium_over_opacity() {
 /// Halving the plane separation with the same unit step changes `over` very little.
 #[test]
 fn opacity_correction_makes_step_size_irrelevant() {
+    let g = Grid {
+        sizes: [40, 40, 40],
+        lengths: [4.0; 3],
+        shear: [0.0; 3],
+        rot: [0.0; 3],
+        centre: [0.0; 3],
+    };
+    let (data, itow) = make(2, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    // A smooth opacity ramp and colour ramp.
+    let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.6]]).unwrap();
+    let c = Txf::new(
+        TxfSpace::Rgb,
+        &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 0.0, 1.0]],
+    )
+    .unwrap();
+    let lut = Lut::generate(Some(&c), Some(&a), false, false, 4096, 0.0, 1.0).unwrap();
     for reference in ENGINES {
-        let g = Grid {
-            sizes: [40, 40, 40],
-            lengths: [4.0; 3],
-            shear: [0.0; 3],
-            rot: [0.0; 3],
-            centre: [0.0; 3],
-        };
-        let (data, itow) = make(2, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        // A smooth opacity ramp and colour ramp.
-        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.6]]).unwrap();
-        let c = Txf::new(
-            TxfSpace::Rgb,
-            &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 0.0, 1.0]],
-        )
-        .unwrap();
-        let lut = Lut::generate(Some(&c), Some(&a), false, false, 4096, 0.0, 1.0).unwrap();
         let mut p = RenderParams::new(cam(
             [6.0, 12.0, 5.0],
             [0.0; 3],
@@ -242,11 +242,11 @@ fn argmax(img: &[f32], w: u32) -> (u32, u32) {
 /// is the image centre.
 #[test]
 fn impulse_lands_where_projected() {
+    let g = grid([20, 24, 22], [0.3, -0.2, 0.1]);
+    let (data, itow) = make(8, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let spot = itow.point([10.0, 12.0, 11.0]);
     for reference in ENGINES {
-        let g = grid([20, 24, 22], [0.3, -0.2, 0.1]);
-        let (data, itow) = make(8, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        let spot = itow.point([10.0, 12.0, 11.0]);
         for (fr, up, ortho) in [
             ([4.0, 3.0, 2.0], [0.0, 0.0, 1.0], false),
             ([-2.0, 5.0, -3.0], [1.0, 0.0, 0.0], true),
@@ -278,10 +278,10 @@ fn impulse_lands_where_projected() {
 /// image, and the aspect ratio is honoured (pixels are square in world units).
 #[test]
 fn look_at_centre_up_is_up_aspect() {
+    let g = grid([8, 8, 8], [0.0; 3]);
+    let (data, itow) = make(11, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
     for reference in ENGINES {
-        let g = grid([8, 8, 8], [0.0; 3]);
-        let (data, itow) = make(11, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
         for ortho in [false, true] {
             let fr = [3.0, -4.0, 2.0];
             let at = [0.2, 0.1, -0.3];
@@ -332,10 +332,10 @@ fn look_at_centre_up_is_up_aspect() {
 /// Near and far planes clip, and sum / mean of `in` count the samples taken.
 #[test]
 fn clipping_and_counting() {
+    let g = grid([20, 20, 20], [0.0; 3]);
+    let (data, itow) = make(11, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
     for reference in ENGINES {
-        let g = grid([20, 20, 20], [0.0; 3]);
-        let (data, itow) = make(11, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
         for (nc, fc, s) in [
             (-0.5, 0.3, 0.01),
             (-0.9, 0.9, 0.05),
@@ -421,12 +421,12 @@ impl ConvoTask for Trace<'_, '_> {
 /// is lerp(dcn, dcf, τ) with τ its relative depth between the planes.
 #[test]
 fn depth_cue_is_linear_in_depth() {
+    let g = grid([20, 20, 20], [0.0; 3]);
+    let (data, itow) = make(11, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
+    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
     for reference in ENGINES {
-        let g = grid([20, 20, 20], [0.0; 3]);
-        let (data, itow) = make(11, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
-        let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
         let mut p = RenderParams::new(cam(
             [1.0, 2.0, 5.0],
             [0.0; 3],
@@ -479,22 +479,22 @@ fn depth_cue_is_linear_in_depth() {
 /// specular highlight where the half vector is the surface normal.
 #[test]
 fn blinn_phong_on_a_sphere() {
+    let g = Grid {
+        sizes: [64, 64, 64],
+        lengths: [2.0; 3],
+        shear: [0.0; 3],
+        rot: [0.0; 3],
+        centre: [0.0; 3],
+    };
+    let (data, itow) = make(9, &g); // f = -(x²+y²+z²): outward normal N = p/|p|
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    // Opaque from f = -0.36 (radius 0.6) inwards.
+    let a = Txf::new(TxfSpace::Alpha, &[&[-0.37, 0.0], &[-0.36, 1.0]]).unwrap();
+    let lut = Lut::generate(None, Some(&a), false, false, 4096, -3.0, 0.0).unwrap();
+    let ldir = [1.0, 0.5, 1.0];
+    let lights = [Light::new([1.0; 3], ldir, false).unwrap()];
+    let size = 81u32;
     for reference in ENGINES {
-        let g = Grid {
-            sizes: [64, 64, 64],
-            lengths: [2.0; 3],
-            shear: [0.0; 3],
-            rot: [0.0; 3],
-            centre: [0.0; 3],
-        };
-        let (data, itow) = make(9, &g); // f = -(x²+y²+z²): outward normal N = p/|p|
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        // Opaque from f = -0.36 (radius 0.6) inwards.
-        let a = Txf::new(TxfSpace::Alpha, &[&[-0.37, 0.0], &[-0.36, 1.0]]).unwrap();
-        let lut = Lut::generate(None, Some(&a), false, false, 4096, -3.0, 0.0).unwrap();
-        let ldir = [1.0, 0.5, 1.0];
-        let lights = [Light::new([1.0; 3], ldir, false).unwrap()];
-        let size = 81u32;
         let mut p = RenderParams::new(cam(
             [0.0, 0.0, 4.0],
             [0.0; 3],
@@ -787,24 +787,24 @@ fn negative_specular_exponent_is_refused() {
 /// per-sample probe values the trace reports (probing and blending are orthogonal).
 #[test]
 fn every_probe_blend_pair_blends_its_samples() {
+    let g = Grid {
+        sizes: [30, 30, 30],
+        lengths: [4.0; 3],
+        shear: [0.0; 3],
+        rot: [0.1, 0.0, 0.2],
+        centre: [0.0; 3],
+    };
+    let (data, itow) = make(2, &g);
+    let vol = Volume::new(&data, g.sizes, itow).unwrap();
+    let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.4]]).unwrap();
+    let c = Txf::new(
+        TxfSpace::Rgb,
+        &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 1.0, 0.5]],
+    )
+    .unwrap();
+    let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
+    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
     for reference in ENGINES {
-        let g = Grid {
-            sizes: [30, 30, 30],
-            lengths: [4.0; 3],
-            shear: [0.0; 3],
-            rot: [0.1, 0.0, 0.2],
-            centre: [0.0; 3],
-        };
-        let (data, itow) = make(2, &g);
-        let vol = Volume::new(&data, g.sizes, itow).unwrap();
-        let a = Txf::new(TxfSpace::Alpha, &[&[0.0, 0.0], &[1.0, 0.4]]).unwrap();
-        let c = Txf::new(
-            TxfSpace::Rgb,
-            &[&[0.0, 1.0, 0.0, 0.0], &[1.0, 0.0, 1.0, 0.5]],
-        )
-        .unwrap();
-        let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
-        let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
         let mut checked = 0;
         for probe in Probe::ALL {
             for blend in rnd_core::blend::Blend::ALL {
