@@ -60,7 +60,8 @@ pub struct RenderParams {
     /// Compute in the course reference program's f32 arithmetic (`-ref`, the default;
     /// [`crate::refarith`]), which reproduces the reference's images. `false` selects
     /// the f64 engine (f64 geometry, separable SIMD sums): 1.65–2.2× quicker, within
-    /// 1e-4 relative of the reference arithmetic but not its bits. The reference
+    /// 1e-4 relative of the reference arithmetic on nearly every pixel (not where round-off
+    /// moves a sample across a LUT bin boundary) but not its bits. The reference
     /// arithmetic needs volumes of at most [`refarith::MAX_AXIS`] samples per axis and a
     /// camera, lights and steps that f32 can hold ([`RenderSpec::new`] checks the last).
     pub reference: bool,

@@ -169,7 +169,8 @@ pub static SPEC: CmdSpec = CmdSpec {
                 "reference arithmetic: the course reference program's f32 operation \
                  order (camera, ray steps, kernel formulas, summation), which \
                  reproduces its images bit for bit where possible; false = the f64-geometry \
-                 engine with separable sums, 1.65-2.2x quicker, within 1e-4 relative",
+                 engine with separable sums, 1.65-2.2x quicker, within 1e-4 relative \
+                 on nearly every pixel",
             ),
             opt(&["q"], 2, "min max", "quantization range for PNG output"),
             opt(
