@@ -969,8 +969,10 @@ fn loop_case(
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 64, .. Default::default() })]
 
-    /// The accelerated ray loop (inside stretch found by bisection, batched phase-by-phase
-    /// convolution, empty-space skipping) gives exactly the plain loop's image: every
+    /// In both engines the accelerated ray loop (the f64 engine: inside stretch found by
+    /// bisection, batched phase-by-phase convolution; the reference arithmetic: each
+    /// ray's outside stretch skipped, sixteen samples convolved at once; both: empty-space
+    /// skipping) gives exactly the plain one-sample loop's image, traced or not: every
     /// probe it handles, every blend, both voxel types, every kernel, perspective and
     /// orthographic cameras placed inside, at the edge of and outside the volume, one
     /// sample per ray, early termination and Levoy opacity.
@@ -1003,14 +1005,22 @@ proptest::proptest! {
         for reference in ENGINES {
             let mut p = p.clone();
             p.reference = reference;
-            let Some((fast, plain)) = fast_and_plain(p, &lut, lev, &lights, vol, k) else {
+            let Ok(spec) = RenderSpec::new(p.clone(), Some(&lut), lev, &lights) else {
                 // Up vector parallel to the view direction, or (reference arithmetic) a
                 // camera beyond f32: nothing to compare.
                 continue;
             };
+            let (fast, plain) = fast_and_plain(p, &lut, lev, &lights, vol, k).unwrap();
             proptest::prop_assert!(
                 fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{k} {probe} {blend} -ref {reference}: {fast:?} vs {plain:?}"
+            );
+            // The traced one-sample loop (what -db runs) gives the same image too.
+            let traced = dispatch(vol, k, TracedImage { spec: &spec });
+            proptest::prop_assert!(
+                fast.iter().zip(&traced).all(|(a, b)| a.to_bits() == b.to_bits())
+                    && fast.len() == traced.len(),
+                "{k} {probe} {blend} -ref {reference}: {fast:?} vs traced {traced:?}"
             );
         }
     }
@@ -1080,51 +1090,5 @@ impl ConvoTask for TracedImage<'_, '_> {
             }
         }
         img
-    }
-}
-
-proptest::proptest! {
-    #![proptest_config(proptest::test_runner::Config { cases: 48, .. Default::default() })]
-
-    /// The reference arithmetic: the batched loop (samples convolved sixteen at a time,
-    /// empty blocks and each ray's outside stretch skipped) gives exactly the traced
-    /// one-sample loop's image, for every kernel, probe, blend, voxel type and camera
-    /// kind, one-sample rays, early termination and Levoy opacity.
-    #[test]
-    fn reference_lanes_are_exact(
-        which in proptest::sample::select(vec![2u32, 9, 12, 13]),
-        ki in 0usize..7,
-        pi in 0usize..5,
-        bi in 0usize..4,
-        fr in proptest::array::uniform3(-6.0f64..6.0),
-        at in proptest::array::uniform3(-1.0f64..1.0),
-        near in proptest::prop_oneof![-3.0f64..0.5, proptest::sample::select(vec![-2.0f64, -1.0, 0.0])],
-        depth in proptest::prop_oneof![0.1f64..5.0, proptest::sample::select(vec![1.0f64, 2.0, 3.0])],
-        step in proptest::sample::select(vec![0.0f64, 0.013, 0.05, 0.31, 0.25, 0.5]),
-        ortho in proptest::bool::ANY,
-        short in proptest::bool::ANY,
-        levoy in proptest::bool::ANY,
-        a1 in proptest::sample::select(vec![1.0f32, 0.9, 0.3]),
-    ) {
-        proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
-        let sv = SdgVolume::new(which, [13, 11, 12], short);
-        let (vol, scale) = (sv.vol(), sv.scale());
-        let (lut, lev, lights, mut p) =
-            loop_case(scale, pi, bi, [fr, at], [near, near + depth], step, ortho, a1);
-        let (probe, blend) = (p.probe, p.blend);
-        p.time = false;
-        p.reference = true;
-        let lev = if levoy { Some(&lev) } else { None };
-        let k = KernelName::ALL[ki];
-        let Ok(spec) = RenderSpec::new(p, Some(&lut), lev, &lights) else {
-            return Ok(());
-        };
-        let lanes = render(&spec, vol, k);
-        let one = dispatch(vol, k, TracedImage { spec: &spec });
-        proptest::prop_assert_eq!(lanes.len(), one.len());
-        proptest::prop_assert!(
-            lanes.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{k} {probe} {blend}: {lanes:?} vs {one:?}"
-        );
     }
 }
