@@ -165,6 +165,8 @@ pub struct Args {
     pos: Vec<Vec<String>>,
     /// The tokens after `@file` expansion (for `content:` lines).
     pub tokens: Vec<String>,
+    /// The response files read (inputs an output must not overwrite).
+    pub response_files: Vec<std::path::PathBuf>,
 }
 
 fn looks_numeric(s: &str) -> bool {
@@ -173,31 +175,107 @@ fn looks_numeric(s: &str) -> bool {
         || matches!(t.to_ascii_lowercase().as_str(), "nan" | "inf" | "infinity")
 }
 
-/// Splits response-file text into tokens: whitespace separated, `#` to end of line is a
-/// comment.
-pub fn tokenize_response(text: &str) -> Vec<String> {
-    text.lines()
-        .flat_map(|l| l.split('#').next().unwrap_or("").split_whitespace())
-        .map(str::to_string)
-        .collect()
-}
-
-fn expand(argv: &[String], depth: usize, out: &mut Vec<String>) -> Result<(), ArgError> {
-    for a in argv {
-        if let Some(f) = a.strip_prefix('@').filter(|f| !f.is_empty()) {
-            if depth > 8 {
-                return Err(ArgError::Bad(format!(
-                    "@{f}: response files nested too deeply"
-                )));
-            }
-            let text = std::fs::read_to_string(f)
-                .map_err(|e| ArgError::Bad(format!("@{f}: can't read response file: {e}")))?;
-            expand(&tokenize_response(&text), depth + 1, out)?;
-        } else {
-            out.push(a.clone());
+/// Splits response-file bytes into words: whitespace separated, `#` to end of line is
+/// a comment (comments may hold any bytes; the words must be UTF-8).
+pub fn tokenize_response(bytes: &[u8]) -> Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    for line in bytes.split(|&b| b == b'\n') {
+        let code = line.split(|&b| b == b'#').next().unwrap_or(&[]);
+        for w in code.split(u8::is_ascii_whitespace).filter(|w| !w.is_empty()) {
+            let w = std::str::from_utf8(w).map_err(|_| {
+                format!(
+                    "the word \"{}\" is not valid UTF-8",
+                    String::from_utf8_lossy(w)
+                )
+            })?;
+            out.push(w.to_string());
         }
     }
-    Ok(())
+    Ok(out)
+}
+
+/// All response files of one command line together are read up to this many bytes.
+pub const RESPONSE_MAX_BYTES: u64 = 64 << 20;
+/// At most this many response files are read (each inclusion counts).
+pub const RESPONSE_MAX_FILES: usize = 1000;
+/// At most this many words after expansion.
+pub const RESPONSE_MAX_WORDS: usize = 1 << 20;
+/// Response files nest at most this deep.
+pub const RESPONSE_MAX_DEPTH: usize = 8;
+
+/// Expands `@file`s within the limits above; a file that includes itself (directly or
+/// through others) is refused.
+#[derive(Default)]
+struct Expander {
+    bytes: u64,
+    files: usize,
+    /// The files being expanded, outermost first (their identities and names).
+    stack: Vec<(std::path::PathBuf, String)>,
+    out: Vec<String>,
+    read: Vec<std::path::PathBuf>,
+}
+
+impl Expander {
+    fn expand(&mut self, argv: &[String]) -> Result<(), ArgError> {
+        for a in argv {
+            let Some(f) = a.strip_prefix('@').filter(|f| !f.is_empty()) else {
+                if self.out.len() >= RESPONSE_MAX_WORDS {
+                    return Err(ArgError::Bad(format!(
+                        "@files expand to more than {RESPONSE_MAX_WORDS} words"
+                    )));
+                }
+                self.out.push(a.clone());
+                continue;
+            };
+            let bad = |m: String| ArgError::Bad(format!("@{f}: {m}"));
+            if self.stack.len() >= RESPONSE_MAX_DEPTH {
+                return Err(bad(format!(
+                    "response files nested more than {RESPONSE_MAX_DEPTH} deep"
+                )));
+            }
+            self.files += 1;
+            if self.files > RESPONSE_MAX_FILES {
+                return Err(bad(format!(
+                    "more than {RESPONSE_MAX_FILES} response files read in all"
+                )));
+            }
+            let path = std::path::PathBuf::from(f);
+            let meta = std::fs::metadata(&path)
+                .map_err(|e| bad(format!("can't read response file: {e}")))?;
+            if meta.is_dir() {
+                return Err(bad("is a directory, not a response file".into()));
+            }
+            let id = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+            if let Some(pos) = self.stack.iter().position(|(p, _)| *p == id) {
+                let chain: Vec<&str> = self.stack[pos..].iter().map(|(_, n)| n.as_str()).collect();
+                return Err(bad(format!(
+                    "includes itself (@{} -> @{f})",
+                    chain.join(" -> @")
+                )));
+            }
+            let room = RESPONSE_MAX_BYTES - self.bytes;
+            let mut text = Vec::new();
+            std::fs::File::open(&path)
+                .and_then(|r| std::io::Read::read_to_end(&mut std::io::Read::take(r, room + 1), &mut text))
+                .map_err(|e| bad(format!("can't read response file: {e}")))?;
+            if text.len() as u64 > room {
+                return Err(bad(format!(
+                    "response files hold more than {} in all",
+                    rnd_std::human_bytes(RESPONSE_MAX_BYTES)
+                )));
+            }
+            if text.contains(&0) {
+                return Err(bad("is not a text file (it holds NUL bytes)".into()));
+            }
+            self.bytes += text.len() as u64;
+            let words = tokenize_response(&text).map_err(bad)?;
+            self.read.push(path);
+            self.stack.push((id, f.to_string()));
+            self.expand(&words)?;
+            self.stack.pop();
+        }
+        Ok(())
+    }
 }
 
 /// Parses `argv` (the words after the command name) against `spec`.
@@ -205,12 +283,13 @@ pub fn parse(spec: &'static CmdSpec, argv: &[String]) -> Result<Args, ArgError> 
     if argv.iter().any(|a| a == "--help" || a == "-help") {
         return Err(ArgError::Help);
     }
-    let mut toks = Vec::new();
-    if spec.response_files {
-        expand(argv, 0, &mut toks)?;
+    let (toks, response_files) = if spec.response_files {
+        let mut e = Expander::default();
+        e.expand(argv)?;
+        (e.out, e.read)
     } else {
-        toks = argv.to_vec();
-    }
+        (argv.to_vec(), Vec::new())
+    };
     let find = |t: &str| -> Option<&'static Opt> {
         let name = t.strip_prefix('-')?;
         spec.opts.iter().find(|o| o.names.contains(&name))
@@ -336,6 +415,7 @@ pub fn parse(spec: &'static CmdSpec, argv: &[String]) -> Result<Args, ArgError> 
         vals,
         pos,
         tokens: toks,
+        response_files,
     })
 }
 

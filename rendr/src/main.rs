@@ -1,6 +1,8 @@
 //! `rendr`: a direct volume renderer. A thin command-line front end over `rnd-core` and
 //! `rnd-std`: one sub-command per file under `cmd/`.
 
+#[macro_use]
+mod out;
 mod args;
 mod cmd;
 mod fmt;
@@ -25,21 +27,92 @@ fn list_commands() -> String {
     s
 }
 
+/// Cleans up on SIGINT, SIGTERM and SIGHUP: removes any output still being written,
+/// says so, and exits with 128 + the signal's number. The signals are blocked in every
+/// thread and taken by one waiting thread, so the cleanup runs as ordinary code (not in
+/// a signal handler). A signal the program was started with ignored (`nohup`) stays
+/// ignored.
+#[cfg(unix)]
+fn handle_signals() {
+    // SAFETY: plain libc calls on a sigset_t and sigaction we own, made before any
+    // other thread exists, so every thread created later inherits the mask.
+    let set = unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            let mut old: libc::sigaction = std::mem::zeroed();
+            if libc::sigaction(sig, std::ptr::null(), &mut old) == 0
+                && old.sa_sigaction == libc::SIG_IGN
+            {
+                continue;
+            }
+            libc::sigaddset(&mut set, sig);
+        }
+        libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut());
+        set
+    };
+    std::thread::spawn(move || loop {
+        let mut sig: libc::c_int = 0;
+        // SAFETY: sigwait reads the set and writes the signal number into `sig`.
+        if unsafe { libc::sigwait(&set, &mut sig) } != 0 {
+            continue;
+        }
+        rnd_std::output::remove_temp_files();
+        let name = match sig {
+            libc::SIGINT => "interrupted",
+            libc::SIGTERM => "terminated",
+            _ => "hung up",
+        };
+        eprintln!("\nrendr: {name}; no output written");
+        std::process::exit(128 + sig);
+    });
+}
+
+/// The arguments as text; a word that is not UTF-8 is refused by position.
+fn arguments() -> Result<Vec<String>, String> {
+    std::env::args_os()
+        .skip(1)
+        .enumerate()
+        .map(|(i, a)| {
+            a.into_string().map_err(|a| {
+                format!(
+                    "argument {} (\"{}\") is not valid UTF-8; rendr needs UTF-8 options and \
+                     file names",
+                    i + 1,
+                    a.to_string_lossy()
+                )
+            })
+        })
+        .collect()
+}
+
+/// Prints a command's error as one line, control characters escaped.
+fn report(cmd: &str, msg: &str) {
+    let one = msg.replace(['\n', '\r'], " ");
+    let sep = if cmd.is_empty() { "" } else { " " };
+    eprintln!(
+        "rendr{sep}{cmd}: {}",
+        rnd_std::error::escape_controls(&one)
+    );
+}
+
 fn main() -> ExitCode {
+    let code = run();
+    out::flush();
+    code
+}
+
+fn run() -> ExitCode {
     // A closed pipe (`rendr go -db ... | head`) ends the program quietly, as it does a
-    // C tool, instead of failing a print with a panic.
+    // C tool, instead of failing a print.
     #[cfg(unix)]
     // SAFETY: called first thing, before any other thread exists; restoring the default
     // disposition of SIGPIPE has no other effect on the program.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    // Ctrl-C: remove any output still being written, then stop (status 130).
-    let _ = ctrlc::set_handler(|| {
-        rnd_std::files::remove_temp_files();
-        eprintln!("\nrendr: interrupted");
-        std::process::exit(130);
-    });
+    #[cfg(unix)]
+    handle_signals();
     // RND_AVX2=0: convolve without AVX2 or AVX-512; RND_AVX512=0: without AVX-512 (the
     // same bits, slower; for comparisons).
     if std::env::var_os("RND_AVX512").is_some_and(|v| v == "0") {
@@ -48,27 +121,37 @@ fn main() -> ExitCode {
     if std::env::var_os("RND_AVX2").is_some_and(|v| v == "0") {
         rnd_core::avx::set_avx2(false);
     }
-    let argv: Vec<String> = std::env::args().skip(1).collect();
+    let argv = match arguments() {
+        Ok(a) => a,
+        Err(m) => {
+            report("", &m);
+            return ExitCode::from(1);
+        }
+    };
     let Some(name) = argv.first() else {
-        print!("{}", list_commands());
+        out!("{}", list_commands());
         return ExitCode::SUCCESS;
     };
     if name == "--help" || name == "-h" || name == "help" {
-        print!("{}", list_commands());
+        out!("{}", list_commands());
         return ExitCode::SUCCESS;
     }
     if name == "--version" || name == "-V" {
-        println!("rendr {}", env!("CARGO_PKG_VERSION"));
+        outln!("rendr {}", env!("CARGO_PKG_VERSION"));
         return ExitCode::SUCCESS;
     }
     let Some(c) = cmd::find(name) else {
-        eprintln!("rendr: unknown command \"{name}\" (run \"rendr\" alone for the list)");
+        report(
+            "",
+            &format!("unknown command \"{name}\" (run \"rendr\" alone for the list)"),
+        );
         return ExitCode::from(1);
     };
+    let _ = out::COMMAND.set(c.spec.name);
     let parsed = match args::parse(c.spec, &argv[1..]) {
         Ok(a) => a,
         Err(ArgError::Help) => {
-            print!("{}", args::help(c.spec));
+            out!("{}", args::help(c.spec));
             return ExitCode::SUCCESS;
         }
         Err(ArgError::Usage(_)) => {
@@ -76,15 +159,14 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
         Err(ArgError::Bad(m)) => {
-            eprintln!("rendr {}: {m}", c.spec.name);
+            report(c.spec.name, &m);
             return ExitCode::from(1);
         }
     };
     match (c.run)(&parsed) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
-            eprintln!("rendr {}: {msg}", c.spec.name);
+            report(c.spec.name, &format!("{e:#}"));
             ExitCode::from(1)
         }
     }

@@ -18,6 +18,10 @@ pub struct Light {
     pub view: bool,
 }
 
+/// At most this many lights light a rendering (each costs a Blinn-Phong term at every
+/// lit sample; the course's light files hold a handful).
+pub const MAX_LIGHTS: usize = 256;
+
 impl Light {
     /// Checks the light: finite colour and direction, non-zero direction.
     pub fn new(rgb: [f32; 3], dir: [f64; 3], view: bool) -> Result<Light> {

@@ -190,6 +190,16 @@ impl<'a> RenderSpec<'a> {
         if params.probe.is_colour() && lut.is_none() {
             return Err(rerr(format!("-p {}: needs a LUT (-lut)", params.probe)));
         }
+        if lights.len() > crate::light::MAX_LIGHTS {
+            return Err(Error::new(
+                ErrorKind::Light,
+                alloc::format!(
+                    "{} lights; at most {} are allowed",
+                    lights.len(),
+                    crate::light::MAX_LIGHTS
+                ),
+            ));
+        }
         if params.probe == Probe::RgbaLit && lights.is_empty() {
             return Err(rerr("-p rgbalit: needs lights (-lit)".into()));
         }

@@ -136,6 +136,16 @@ impl Txf {
             v[..nc - 1].copy_from_slice(&r[1..]);
             vals.push(v);
         }
+        // Interpolation divides by differences of positions: they must be finite.
+        let (first, last) = (xs[0], xs[xs.len() - 1]);
+        if !(last - first).is_finite() {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!(
+                    "control points span [{first:e}, {last:e}], wider than a double can hold"
+                ),
+            ));
+        }
         Ok(Txf { space, xs, vals })
     }
 
@@ -214,6 +224,12 @@ impl Lut {
                 alloc::format!("LUT domain [{vmin}, {vmax}] needs finite min < max"),
             ));
         }
+        if !(vmax - vmin).is_finite() {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!("LUT domain [{vmin:e}, {vmax:e}] is wider than a double can hold"),
+            ));
+        }
         if rgba.is_empty() {
             return Err(Error::new(ErrorKind::Txf, "LUT has no entries"));
         }
@@ -242,6 +258,14 @@ impl Lut {
             return Err(Error::new(
                 ErrorKind::Txf,
                 alloc::format!("-mm: need finite min < max (got {vmin} {vmax})"),
+            ));
+        }
+        if !(vmax - vmin).is_finite() {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!(
+                    "-mm: LUT domain [{vmin:e}, {vmax:e}] is wider than a double can hold"
+                ),
             ));
         }
         if let Some(c) = ctxf {

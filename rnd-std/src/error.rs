@@ -10,7 +10,7 @@ pub struct Error {
     pub path: Option<PathBuf>,
     /// What went wrong.
     pub msg: String,
-    /// The underlying IO error, if any.
+    /// The underlying IO error, if any (its text is part of `msg` already).
     pub source: Option<std::io::Error>,
 }
 
@@ -48,21 +48,49 @@ impl Error {
     }
 }
 
+/// Writes `s` with every control character (C0, DEL, C1) and bidirectional-text
+/// override shown as an escape (`\u{1b}`), so text taken from a file (a header line, a
+/// file name) cannot drive the terminal it is printed on. Printable text, tabs aside,
+/// is unchanged; escaping twice changes nothing more.
+pub fn escape_controls(s: &str) -> std::borrow::Cow<'_, str> {
+    fn bad(c: char) -> bool {
+        c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+    }
+    if !s.chars().any(bad) {
+        return std::borrow::Cow::Borrowed(s);
+    }
+    let mut out = String::with_capacity(s.len() + 8);
+    for c in s.chars() {
+        if bad(c) {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let msg = escape_controls(&self.msg);
         match &self.path {
-            Some(p) if p.as_os_str() == "-" => write!(f, "(stdin): {}", self.msg),
-            Some(p) => write!(f, "{}: {}", p.display(), self.msg),
-            None => f.write_str(&self.msg),
+            Some(p) if p.as_os_str() == "-" => write!(f, "(stdin): {msg}"),
+            Some(p) => write!(
+                f,
+                "{}: {msg}",
+                escape_controls(&p.display().to_string())
+            ),
+            None => f.write_str(&msg),
         }
     }
 }
 
-impl std::error::Error for Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        self.source.as_ref().map(|e| e as _)
-    }
-}
+/// The message already contains the IO error's text, so [`source`] is `None` (error
+/// reporters that print the chain would print it twice); the IO error itself stays in
+/// the `source` field for callers that want its kind.
+///
+/// [`source`]: std::error::Error::source
+impl std::error::Error for Error {}
 
 impl From<rnd_core::Error> for Error {
     fn from(e: rnd_core::Error) -> Self {

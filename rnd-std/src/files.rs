@@ -1,9 +1,8 @@
 //! Loading the small text/NRRD files rendr reads (transfer functions, LUTs, Levoy
-//! iso-contours, lights), each validated with errors naming the file, and atomic
-//! output.
+//! iso-contours, lights), each validated with errors naming the file. [`write_atomic`] is
+//! re-exported from [`crate::output`].
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rnd_core::light::Light;
 use rnd_core::txf::{hsv_to_rgb, Levoy, Lut, Txf, TxfSpace};
@@ -163,6 +162,16 @@ pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
             format!("need 7 columns per light (r g b  dx dy dz  view), got {c}"),
         ));
     }
+    let count = n.sizes().get(1).copied().unwrap_or(1);
+    if count > rnd_core::light::MAX_LIGHTS {
+        return Err(Error::at(
+            path,
+            format!(
+                "{count} lights; at most {} are allowed",
+                rnd_core::light::MAX_LIGHTS
+            ),
+        ));
+    }
     rows(&n, 7)
         .into_iter()
         .enumerate()
@@ -183,66 +192,34 @@ pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
         .collect()
 }
 
-static TEMP_FILES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+pub use crate::output::{remove_temp_files, write_atomic};
 
-/// Removes every temporary output file still being written (for a Ctrl-C handler).
-pub fn remove_temp_files() {
-    if let Ok(v) = TEMP_FILES.lock() {
-        for p in v.iter() {
-            let _ = std::fs::remove_file(p);
+/// Reads a UTF-8 text file (`-` = stdin) of at most `limit` bytes: a longer input, one
+/// with NUL bytes (a binary file, `/dev/zero`) or one that is not UTF-8 is refused
+/// without reading past the limit.
+///
+/// # Errors
+/// Unreadable, too long, NUL bytes, not UTF-8 (each naming the file).
+pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+    use std::io::Read;
+    let mut b = Vec::new();
+    let r = if path.as_os_str() == "-" {
+        std::io::stdin().lock().take(limit + 1).read_to_end(&mut b)
+    } else {
+        if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+            return Err(Error::at(path, "is a directory, not a file"));
         }
-    }
-}
-
-fn forget_temp(p: &Path) {
-    if let Ok(mut v) = TEMP_FILES.lock() {
-        v.retain(|x| x != p);
-    }
-}
-
-/// Writes to `path` through `fill`: `-` goes to stdout; anything else goes to a temporary
-/// file in the same directory that is renamed over `path` only after `fill` succeeded,
-/// so a failure never leaves a partial file or clobbers an existing one.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
-    if path.as_os_str() == "-" {
-        let stdout = std::io::stdout();
-        let mut lock = std::io::BufWriter::new(stdout.lock());
-        fill(&mut lock)?;
-        return lock
-            .flush()
-            .map_err(|e| Error::io(path, "can't write to stdout", e));
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
+        std::fs::File::open(path).and_then(|f| f.take(limit + 1).read_to_end(&mut b))
     };
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::at(path, "output name has no file name"))?
-        .to_string_lossy()
-        .into_owned();
-    if path.is_dir() {
-        return Err(Error::at(path, "output is a directory"));
+    r.map_err(|e| Error::io(path, "can't read", e))?;
+    if b.len() as u64 > limit {
+        return Err(Error::at(
+            path,
+            format!("longer than {}", crate::human_bytes(limit)),
+        ));
     }
-    let tmp = dir.join(format!(".{name}.rendr-tmp-{}", std::process::id()));
-    if let Ok(mut v) = TEMP_FILES.lock() {
-        v.push(tmp.clone());
+    if b.contains(&0) {
+        return Err(Error::at(path, "not a text file (it holds NUL bytes)"));
     }
-    let result = (|| {
-        let f =
-            std::fs::File::create(&tmp).map_err(|e| Error::io(path, "can't create output", e))?;
-        let mut w = std::io::BufWriter::new(f);
-        fill(&mut w).map_err(|e| e.with_path(path))?;
-        let f = w
-            .into_inner()
-            .map_err(|e| Error::io(path, "can't write", e.into_error()))?;
-        f.sync_all().ok();
-        drop(f);
-        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, "can't move output into place", e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    forget_temp(&tmp);
-    result
+    String::from_utf8(b).map_err(|_| Error::at(path, "not UTF-8 text"))
 }

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::files::write_atomic;
+use crate::output::{write_atomic, Output};
 use crate::nrrd::{self, Data, Nrrd, WriteOptions};
 use crate::{Error, Result};
 
@@ -92,6 +92,18 @@ pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> 
     })
 }
 
+/// [`write_png_rgb`] into an output prepared beforehand.
+///
+/// # Errors
+/// PNG encoding and write failures.
+pub fn write_png_rgb_to(out: Output, buf: &[u8], w: usize, h: usize) -> Result<()> {
+    let bytes = encode_png(buf, w, h, image::ColorType::Rgb8)?;
+    out.commit(|f| {
+        f.write_all(&bytes)
+            .map_err(|e| Error::msg(format!("write failed: {e}")))
+    })
+}
+
 fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in it {
@@ -109,15 +121,32 @@ fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
 
 /// Writes (and consumes) `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
 /// sizes C W H, `content` as given). `-` writes NRRD to stdout.
+///
+/// # Errors
+/// As [`Output::create`] and [`write_image_to`].
 pub fn write_image(
     img: Image,
     path: &Path,
     content: &str,
     range: Option<(f64, f64)>,
 ) -> Result<()> {
-    if is_png(path) {
+    write_image_to(img, Output::create::<&Path>(path, &[])?, content, range)
+}
+
+/// [`write_image`] into an output prepared beforehand (PNG when its name ends in
+/// `.png`).
+///
+/// # Errors
+/// PNG encoding and write failures.
+pub fn write_image_to(
+    img: Image,
+    out: Output,
+    content: &str,
+    range: Option<(f64, f64)>,
+) -> Result<()> {
+    if is_png(out.path()) {
         let bytes = png_bytes(&img, range)?;
-        return write_atomic(path, |w| {
+        return out.commit(|w| {
             w.write_all(&bytes)
                 .map_err(|e| Error::msg(format!("write failed: {e}")))
         });
@@ -127,5 +156,5 @@ pub fn write_image(
         Data::F32(img.data),
     )?;
     n.header.content = Some(content.to_string());
-    nrrd::write(&n, path, WriteOptions::default())
+    out.commit(|w| nrrd::write_to(&n, WriteOptions::default(), w))
 }

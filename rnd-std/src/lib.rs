@@ -11,6 +11,7 @@ pub mod error;
 pub mod files;
 pub mod image_out;
 pub mod nrrd;
+pub mod output;
 pub mod parallel;
 pub mod volume_io;
 
@@ -22,6 +23,92 @@ pub fn mem_total() -> Option<u64> {
     let line = s.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
+}
+
+/// The most memory this process may hold, as far as the system says: the least of
+/// physical memory (`MemTotal`), the memory limit of its control group and of every
+/// group above it (cgroup v2 `memory.max`, v1 `memory.limit_in_bytes`) and its
+/// address-space and data-segment limits (`ulimit -v`, `ulimit -d`). None when nothing
+/// is known. Checks of what a header or an option asks for compare with this before
+/// allocating; the allocations themselves are fallible as well, since other processes
+/// may hold part of it.
+pub fn mem_limit() -> Option<u64> {
+    [mem_total(), cgroup_limit(), rlimit_limit()]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+fn cgroup_limit() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let mut best: Option<u64> = None;
+    let mut take = |v: Option<u64>| {
+        if let Some(v) = v {
+            best = Some(best.map_or(v, |b| b.min(v)));
+        }
+    };
+    let read_num = |p: std::path::PathBuf| -> Option<u64> {
+        std::fs::read_to_string(p).ok()?.trim().parse().ok()
+    };
+    for line in text.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, ctrl, path) = (parts.next()?, parts.next()?, parts.next()?);
+        let (root, file) = if ctrl.is_empty() {
+            ("/sys/fs/cgroup", "memory.max")
+        } else if ctrl.split(',').any(|c| c == "memory") {
+            ("/sys/fs/cgroup/memory", "memory.limit_in_bytes")
+        } else {
+            continue;
+        };
+        // The group's own limit and every ancestor's ("max" reads as no number).
+        let mut p = std::path::PathBuf::from(path.trim_start_matches('/'));
+        loop {
+            take(read_num(std::path::Path::new(root).join(&p).join(file)));
+            if !p.pop() {
+                break;
+            }
+        }
+    }
+    best
+}
+
+#[cfg(unix)]
+fn rlimit_limit() -> Option<u64> {
+    let get = |r| {
+        let mut l = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit writes the limit into `l`, a valid rlimit we own.
+        let ok = unsafe { libc::getrlimit(r, &mut l) } == 0;
+        (ok && l.rlim_cur != libc::RLIM_INFINITY).then_some(l.rlim_cur as u64)
+    };
+    [get(libc::RLIMIT_AS), get(libc::RLIMIT_DATA)]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+#[cfg(not(unix))]
+fn rlimit_limit() -> Option<u64> {
+    None
+}
+
+/// Refuses a request for `bytes` of memory (for `what`) beyond [`mem_limit`].
+///
+/// # Errors
+/// When `bytes` exceeds the limit, naming both.
+pub fn check_memory(bytes: u64, what: &str) -> Result<()> {
+    if let Some(lim) = mem_limit() {
+        if bytes > lim {
+            return Err(Error::msg(format!(
+                "{what} would need {} of memory; this process may use at most {}",
+                human_bytes(bytes),
+                human_bytes(lim)
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Human-readable byte count ("1.5 GiB").

@@ -26,17 +26,42 @@ pub fn default_threads() -> usize {
 
 /// Renders the whole image with `threads` workers (≤ 1: on the calling thread); draws a
 /// progress line on stderr when `progress` is set and stderr is a terminal.
+///
+/// # Errors
+/// When the image needs more memory than this process may use ([`crate::mem_limit`])
+/// or the system refuses it (checked before rendering starts).
 pub fn render(
     spec: &RenderSpec<'_>,
     vol: AnyVolume<'_>,
     kernel: KernelName,
     threads: usize,
     progress: bool,
-) -> Vec<f32> {
+) -> crate::Result<Vec<f32>> {
+    let [w, h] = spec.size();
+    let len = (w as u64)
+        .checked_mul(h as u64)
+        .and_then(|n| n.checked_mul(spec.channels as u64))
+        .filter(|&n| usize::try_from(n).is_ok())
+        .ok_or_else(|| crate::Error::msg(format!("a {w} x {h} image is too large to address")))?;
+    let what = format!(
+        "a {w} x {h} image with {} channel{}",
+        spec.channels,
+        if spec.channels == 1 { "" } else { "s" }
+    );
+    crate::check_memory(len.saturating_mul(4), &what)?;
+    let mut out: Vec<f32> = Vec::new();
+    out.try_reserve_exact(len as usize).map_err(|_| {
+        crate::Error::msg(format!(
+            "{what}: the system refused the {} it needs",
+            crate::human_bytes(len.saturating_mul(4))
+        ))
+    })?;
+    out.resize(len as usize, 0.0);
     struct Task<'s, 'a> {
         spec: &'s RenderSpec<'a>,
         threads: usize,
         progress: bool,
+        out: Vec<f32>,
     }
     impl ConvoTask for Task<'_, '_> {
         type Output = Vec<f32>;
@@ -45,7 +70,7 @@ pub fn render(
             let [w, h] = spec.size();
             let (w, h) = (w as usize, h as usize);
             let ch = spec.channels;
-            let mut out = vec![0.0f32; w * h * ch];
+            let mut out = self.out;
             let t0 = Instant::now();
             let clock = || t0.elapsed().as_secs_f64() * 1000.0;
             let clock_ref: Option<&(dyn Fn() -> f64 + Sync)> =
@@ -97,15 +122,16 @@ pub fn render(
             out
         }
     }
-    dispatch(
+    Ok(dispatch(
         vol,
         kernel,
         Task {
             spec,
             threads,
             progress,
+            out,
         },
-    )
+    ))
 }
 
 /// Builds the skip grid of `plan` with `threads` workers, each taking a run of whole

@@ -86,6 +86,7 @@ pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
 }
 
 /// Builds a volume from an in-memory NRRD.
+#[allow(clippy::unnecessary_cast)] // each_data! covers f32 and f64 too
 pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
     let h = &n.header;
     let mut notes = Vec::new();
@@ -210,7 +211,18 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
                 "{} samples converted to float",
                 other.scalar_type()
             ));
-            VolumeData::F32(other.to_f32())
+            // The float copy exists beside the file's samples for a moment.
+            let need = (other.len() as u64).saturating_mul(4);
+            crate::check_memory(need, "converting the samples to float")?;
+            let mut v: Vec<f32> = Vec::new();
+            v.try_reserve_exact(other.len()).map_err(|_| {
+                Error::msg(format!(
+                    "the system refused {} of memory for the float samples",
+                    crate::human_bytes(need)
+                ))
+            })?;
+            crate::nrrd::each_data!(&other, src => v.extend(src.iter().map(|&x| x as f32)));
+            VolumeData::F32(v)
         }
     };
     let space = h.space.clone();

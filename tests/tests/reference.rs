@@ -86,7 +86,7 @@ fn cube_rgb_f64_engine_matches_reference() {
     let mut p = cube_params();
     p.reference = false;
     let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
-    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false);
+    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false).unwrap();
     let reference = nrrd::read(&d.join("cube-rgb.nrrd")).unwrap();
     assert_eq!(reference.sizes(), &[4, 320, 280]);
     let want = reference.data.to_f32();
@@ -187,7 +187,7 @@ fn cube_rgb_matches_every_pixel() {
         "the default engine is the reference arithmetic"
     );
     let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
-    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false);
+    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false).unwrap();
     let want = nrrd::read(&d.join("cube-rgb.nrrd")).unwrap().data.to_f32();
     assert_eq!(img.len(), want.len());
     let mut worst = 0.0f32;
@@ -335,10 +335,10 @@ fn threads_give_identical_images() {
             for reference in [false, true] {
                 p.reference = reference;
                 let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false);
+                let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false).unwrap();
                 for n in [2, 7] {
                     let many =
-                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false);
+                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false).unwrap();
                     let same = one
                         .iter()
                         .zip(&many)
@@ -398,10 +398,10 @@ fn reference_arithmetic_agrees_with_f64_engine() {
                     p.blend = blend;
                     p.reference = false;
                     let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                    let fast = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false);
+                    let fast = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false).unwrap();
                     p.reference = true;
                     let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                    let refd = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false);
+                    let refd = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false).unwrap();
                     assert_eq!(fast.len(), refd.len());
                     let ch = fast.len() / (41 * 33);
                     let pixels = fast.len() / ch;

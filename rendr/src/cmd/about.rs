@@ -16,7 +16,7 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         .ok()
         .and_then(|v| v.parse::<i32>().ok())
         .unwrap_or(0);
-    println!(
+    outln!(
         "rendr {}: a direct volume renderer.\n\
          \n\
          rendr casts one ray per pixel through a 3-D scalar volume (16-bit or float\n\

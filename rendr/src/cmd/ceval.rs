@@ -67,30 +67,30 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let wtoi = vol.itow.affine_inverse()?;
     let wl = format!("{},{},{}", g9(w[0]), g9(w[1]), g9(w[2]));
     if a.flag("wtoi") {
-        println!("{} = WtoI({}) in {file}", list9(&wtoi.point(w)), list9(&w));
+        outln!("{} = WtoI({}) in {file}", list9(&wtoi.point(w)), list9(&w));
         return Ok(());
     }
     let s = dispatch(vol.view(), k, Eval { pos: w, grad });
     if !s.inside {
-        println!(
+        outln!(
             "outside =rndConvoEval(({wl}),{file}*{}): the {} support around index ({}) leaves the volume",
             k.title(),
             k.as_str(),
             list9(&s.pos_i)
         );
         if grad {
-            println!("outside =gradient");
+            outln!("outside =gradient");
         }
         return Ok(());
     }
-    println!(
+    outln!(
         "{} =rndConvoEval(({wl}),{file}*{})",
         g9(s.value as f64),
         k.title()
     );
     if grad {
         let g: Vec<f64> = s.grad_w.iter().map(|&x| x as f64).collect();
-        println!("{} =gradient", list9(&g));
+        outln!("{} =gradient", list9(&g));
     }
     Ok(())
 }

@@ -11,7 +11,7 @@ use rnd_core::probe::Probe;
 use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
-use rnd_std::image_out::{write_image, Image};
+use rnd_std::image_out::{write_image_to, Image};
 
 use crate::args::{def, flag, opt, parse_named, req, Args, CmdSpec};
 use crate::fmt::{g6, list6};
@@ -195,18 +195,18 @@ impl ConvoTask for Trace<'_, '_> {
         let spec = self.spec;
         let [hi, vi] = self.px;
         let g = spec.ray_geom(hi, vi);
-        println!("pixel ({hi}, {vi}):");
-        println!(
+        outln!("pixel ({hi}, {vi}):");
+        outln!(
             "  view-space ray initial pos {} step {}",
             list6(&g.start_v),
             list6(&g.step_v)
         );
-        println!(
+        outln!(
             "  world-space ray initial pos {} step {}",
             list6(&g.start_w),
             list6(&g.step_w)
         );
-        println!("  length of ray step {}", g6(g.step_len));
+        outln!("  length of ray step {}", g6(g.step_len));
         let mut convo = Convo::<V, K, S>::new(vol);
         let plen = spec.params.probe.length();
         let mut out = vec![0.0f32; plen];
@@ -217,7 +217,7 @@ impl ConvoTask for Trace<'_, '_> {
                     .collect::<Vec<_>>()
                     .join(" ")
             };
-            println!(
+            outln!(
                 "  sample {}: view ({}) world ({}) index ({}) inside {}",
                 s.k,
                 list6(&s.pos_v),
@@ -226,13 +226,13 @@ impl ConvoTask for Trace<'_, '_> {
                 u8::from(s.convo.inside)
             );
             if s.convo.inside {
-                println!(
+                outln!(
                     "    value {} gradient ({})",
                     g6(s.convo.value as f64),
                     f(&s.convo.grad_w)
                 );
             }
-            println!(
+            outln!(
                 "    probe ({}){} -> blend ({}) count {}",
                 f(&s.probe[..plen]),
                 if s.counted { "" } else { " not counted" },
@@ -242,40 +242,51 @@ impl ConvoTask for Trace<'_, '_> {
         };
         spec.cast(&mut convo, hi, vi, &mut out, Some(&mut cb));
         let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
-        println!("result: {}", list6(&r));
+        outln!("result: {}", list6(&r));
     }
 }
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
-    run_cached(a, &mut VolumeCache::default())
+    run_cached(a, &mut VolumeCache::default(), &[])
 }
 
-/// Volumes loaded so far, by file name (used by `mgo` to read each volume once).
+/// The last volume loaded (used by `mgo`, so consecutive renderings of one volume read
+/// it once). Only one is kept: memory stays that of the largest volume, however many
+/// lines name how many volumes.
 #[derive(Default)]
 pub struct VolumeCache {
-    vols: std::collections::HashMap<PathBuf, std::rc::Rc<rnd_std::volume_io::VolumeBuf>>,
+    last: Option<(PathBuf, std::rc::Rc<rnd_std::volume_io::VolumeBuf>)>,
 }
 
 impl VolumeCache {
-    /// The volume in `path`, loaded on first use.
+    /// The volume in `path`: the cached one when it is the same name, else loaded
+    /// (after the previous one is let go).
     pub fn get(
         &mut self,
         path: &Path,
         threads: usize,
     ) -> anyhow::Result<std::rc::Rc<rnd_std::volume_io::VolumeBuf>> {
-        if let Some(v) = self.vols.get(path) {
-            return Ok(v.clone());
+        if let Some((p, v)) = &self.last {
+            if p == path {
+                return Ok(v.clone());
+            }
         }
+        self.last = None;
         let v = std::rc::Rc::new(rnd_std::volume_io::load_volume_threads(path, threads)?);
         if path.as_os_str() != "-" {
-            self.vols.insert(path.to_path_buf(), v.clone());
+            self.last = Some((path.to_path_buf(), v.clone()));
         }
         Ok(v)
     }
 }
 
-/// `go` with volumes taken from (and added to) `cache`.
-pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
+/// `go` with volumes taken from (and added to) `cache`; `extra_inputs` are files the
+/// output must not overwrite besides this command's own (`mgo`'s command file).
+pub fn run_cached(
+    a: &Args,
+    cache: &mut VolumeCache,
+    extra_inputs: &[String],
+) -> anyhow::Result<()> {
     let camera = super::cam::camera_spec(a)?;
     let kernel: KernelName = parse_named("k", &a.get_str("k").unwrap_or_default())?;
     let probe: Probe = parse_named("p", &a.get_str("p").unwrap_or_default())?;
@@ -320,14 +331,20 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         bail!("missing -o (output file), needed unless -db is given");
     }
     let input = PathBuf::from(a.get_str("i").unwrap_or_default());
-    if let Some(o) = &out {
-        super::check_not_input(o, &input)?;
-        for f in ["lut", "lev", "lit"] {
-            if let Some(x) = a.get_str(f) {
-                super::check_not_input(o, Path::new(&x))?;
-            }
-        }
-    }
+    let inputs: Vec<String> = std::iter::once(a.get_str("i").unwrap_or_default())
+        .chain(["lut", "lev", "lit"].iter().filter_map(|f| a.get_str(f)))
+        .chain(extra_inputs.iter().cloned())
+        .collect();
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    // The output is prepared before anything is read or rendered (and with -db there
+    // is none).
+    let output = match (&out, debug) {
+        (Some(o), false) => Some(
+            super::output(&o.to_string_lossy(), a, &inputs)
+                .with_context(|| format!("-o {}", o.display()))?,
+        ),
+        _ => None,
+    };
     let lut = a
         .get_str("lut")
         .map(|f| rnd_std::files::load_lut(Path::new(&f)))
@@ -386,19 +403,9 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         let _ = std::io::stdin().read_line(&mut s);
     }
     let [w, h] = spec.size();
-    let pixels = (w as u64) * (h as u64) * spec.channels as u64 * 4;
-    if let Some(t) = rnd_std::mem_total() {
-        if pixels > t {
-            bail!(
-                "-sz: a {w} x {h} image with {} channels would need {} of memory; this machine has {}",
-                spec.channels,
-                rnd_std::human_bytes(pixels),
-                rnd_std::human_bytes(t)
-            );
-        }
-    }
     let t0 = std::time::Instant::now();
-    let data = rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress);
+    let data = rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress)
+        .context("-sz")?;
     if std::env::var("RND_VERBOSE")
         .ok()
         .and_then(|v| v.parse::<i32>().ok())
@@ -415,7 +422,9 @@ pub fn run_cached(a: &Args, cache: &mut VolumeCache) -> anyhow::Result<()> {
         channels: spec.channels,
         size: [w as usize, h as usize],
     };
-    let o = out.unwrap_or_default();
-    write_image(img, &o, &super::content("go", a), q).with_context(|| "writing the image")?;
+    let Some(output) = output else {
+        bail!("missing -o (output file)");
+    };
+    write_image_to(img, output, &super::content("go", a), q).context("writing the image")?;
     Ok(())
 }

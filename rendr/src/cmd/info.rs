@@ -28,29 +28,29 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         let v = rnd_std::volume_io::load_volume(Path::new(f))?;
         let [s0, s1, s2] = v.sizes;
         let (lo, hi) = v.min_max();
-        println!("==============================");
-        println!("{f}");
-        println!(
+        outln!("==============================");
+        outln!("{f}");
+        outln!(
             "{s0} by {s1} by {s2} volume with type {} voxels",
             v.type_name()
         );
         if v.file_type != "float" && v.file_type != "short" {
-            println!("(file holds {} samples)", v.file_type);
+            outln!("(file holds {} samples)", v.file_type);
         }
-        println!("[{}, {}] is range of values", g9(lo), g9(hi));
-        print!(
+        outln!("[{}, {}] is range of values", g9(lo), g9(hi));
+        out!(
             "Image-to-World orientation matrix ItoW is:\n{}",
             matrix(&v.itow, g9)
         );
         let wtoi = v.itow.affine_inverse()?;
-        print!(
+        out!(
             "World-to-Image inverse of ItoW (via rnd_m4_affine_inv):\n{}",
             matrix(&wtoi, g9)
         );
         let cols: Vec<[f64; 3]> = (0..3).map(|c| v.itow.column3(c)).collect();
         let sp: Vec<f64> = cols.iter().map(|c| v3::len(*c)).collect();
-        println!("The spacings between samples are:");
-        println!(
+        outln!("The spacings between samples are:");
+        outln!(
             " {} (average {})",
             list9(&sp),
             g9(sp.iter().sum::<f64>() / 3.0)
@@ -59,14 +59,14 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             let c = v3::dot(cols[a], cols[b]) / (sp[a] * sp[b]);
             rnd_core::math::acos(c.clamp(-1.0, 1.0)).to_degrees()
         };
-        println!("Angles (in degrees) between data axes are:");
-        println!(
+        outln!("Angles (in degrees) between data axes are:");
+        outln!(
             "{} (0/1), {} (0/2), {} (1/2)",
             g9(ang(0, 1)),
             g9(ang(0, 2)),
             g9(ang(1, 2))
         );
-        println!("The corners of the extent of the cell-centered samples are:");
+        outln!("The corners of the extent of the cell-centered samples are:");
         for k in 0..2 {
             for j in 0..2 {
                 for i in 0..2 {
@@ -75,7 +75,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                         if j == 0 { -0.5 } else { s1 as f64 - 0.5 },
                         if k == 0 { -0.5 } else { s2 as f64 - 0.5 },
                     ];
-                    println!("   {}\t= ItoW({})", list9(&v.itow.point(ix)), list9(&ix));
+                    outln!("   {}\t= ItoW({})", list9(&v.itow.point(ix)), list9(&ix));
                 }
             }
         }
@@ -84,12 +84,12 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             (s1 as f64 - 1.0) / 2.0,
             (s2 as f64 - 1.0) / 2.0,
         ];
-        println!("The center of the volume is at:");
-        println!("{}\t= ItoW({})", list9(&v.itow.point(c)), list9(&c));
+        outln!("The center of the volume is at:");
+        outln!("{}\t= ItoW({})", list9(&v.itow.point(c)), list9(&c));
         if !v.notes.is_empty() {
-            println!("Conversions applied to make it renderable:");
+            outln!("Conversions applied to make it renderable:");
             for n in &v.notes {
-                println!(" - {n}");
+                outln!(" - {n}");
             }
         }
     }

@@ -47,25 +47,31 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let x: f64 = a.pos(1)[0]
         .parse()
         .map_err(|_| anyhow::anyhow!("<pos>: can't parse \"{}\" as a real number", a.pos(1)[0]))?;
+    if x.is_nan() {
+        anyhow::bail!("<pos>: NaN is not a position");
+    }
     let d: u32 = a.get("d")?;
     if d > 2 {
         anyhow::bail!("-d: {d} derivatives requested; only 0, 1 or 2 are known");
     }
     if a.flag("s") {
-        println!("support({}) = {}", k.title(), k.support());
+        outln!("support({}) = {}", k.title(), k.support());
     }
     let names = [String::new(), "d".to_string(), "dd".to_string()];
     for (i, pre) in names.iter().enumerate().take(d as usize + 1) {
-        println!("{pre}{}({})= {}", k.title(), g9(x), g9(k.eval(x, i as u32)));
+        outln!("{pre}{}({})= {}", k.title(), g9(x), g9(k.eval(x, i as u32)));
     }
     if a.given("a") {
         let al: f64 = a.get("a")?;
+        if !al.is_finite() {
+            anyhow::bail!("-a: alpha must be a finite fractional position (got {al})");
+        }
         let lo = k.lo();
         for (i, pre) in names.iter().enumerate().take(d as usize + 1) {
             let w: Vec<String> = (0..k.support() as i32)
                 .map(|j| g9(k.eval(al - (lo + j) as f64, i as u32)))
                 .collect();
-            println!(
+            outln!(
                 "{} = {pre}{} weights at alpha={}",
                 w.join(" "),
                 k.title(),

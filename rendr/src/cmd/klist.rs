@@ -15,7 +15,7 @@ pub static SPEC: CmdSpec = CmdSpec {
 };
 
 pub fn run(_a: &Args) -> anyhow::Result<()> {
-    println!(
+    outln!(
         "Kernels are named case-insensitively with -k. The support S is the number of\n\
          samples per axis a convolution reads (S^3 voxels in 3-D); every kernel knows\n\
          its first and second derivative kernels (same support), used for gradients."
@@ -26,13 +26,13 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         .max()
         .unwrap_or(0);
     for k in KernelName::ALL {
-        println!(
+        outln!(
             "=== {:w$} (support {}): {}",
             k.title(),
             k.support(),
             k.description()
         );
-        println!("      d{}, dd{}", k.title(), k.title());
+        outln!("      d{}, dd{}", k.title(), k.title());
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::bail;
+use anyhow::{bail, Context};
 use rnd_std::nrrd::{self, Centering, Data, Nrrd, WriteOptions};
 
 use crate::args::{def, req, Args, CmdSpec};
@@ -44,6 +44,8 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if sv == 0 || sg == 0 || sv.saturating_mul(sg) > 1 << 26 {
         bail!("-sz: sizes {sv} {sg} must be > 0 with at most 2^26 samples");
     }
+    let o = a.get_str("o").unwrap_or_default();
+    let output = super::output(&o, a, &[f.as_str()]).with_context(|| format!("-o {o}"))?;
     let lev = rnd_std::files::load_levoy(Path::new(&f))?;
     let mut out = Vec::with_capacity(sv * sg);
     for j in 0..sg {
@@ -59,7 +61,6 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     h.axis_mins = Some(vec![lo, 0.0]);
     h.axis_maxs = Some(vec![hi, gmax]);
     h.centerings = Some(vec![Centering::Cell, Centering::Cell]);
-    let o = a.get_str("o").unwrap_or_default();
-    nrrd::write(&n, Path::new(&o), WriteOptions::default())?;
+    output.commit(|w| nrrd::write_to(&n, WriteOptions::default(), w))?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::bail;
+use anyhow::{bail, Context};
 use rnd_core::txf::Lut;
 use rnd_std::nrrd::{self, Centering, Data, Nrrd, WriteOptions};
 
@@ -69,6 +69,24 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let len: usize = a.get("l")?;
     let [lo, hi] = a.get_arr::<f64, 2>("mm")?;
     let hgt: usize = a.get("h")?;
+    if a.given("oi") && (hgt == 0 || hgt > 1 << 16) {
+        bail!("-h: picture height {hgt} must be in 1..=65536");
+    }
+    // Outputs prepared first: neither may be an input, nor the other output.
+    let inputs = [files[0].as_str(), files[1].as_str()];
+    let o = a.get_str("o").unwrap_or_default();
+    let out = super::output(&o, a, &inputs).with_context(|| format!("-o {o}"))?;
+    let pic = match a.get_str("oi") {
+        Some(oi) => {
+            if oi != "-" && rnd_std::output::same_file(Path::new(&oi), Path::new(&o))
+                || oi == o
+            {
+                bail!("-oi {oi}: the picture would overwrite the LUT output -o");
+            }
+            Some(super::output(&oi, a, &inputs).with_context(|| format!("-oi {oi}"))?)
+        }
+        None => None,
+    };
     let load = |f: &str| -> anyhow::Result<_> {
         Ok(if f == "x" {
             None
@@ -98,14 +116,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     h.axis_maxs = Some(vec![f64::NAN, hi]);
     h.centerings = Some(vec![Centering::Unknown, Centering::Cell]);
     h.kinds = Some(vec!["RGBA-color".into(), "???".into()]);
-    let o = a.get_str("o").unwrap_or_default();
-    if let Some(oi) = a.get_str("oi") {
-        if hgt == 0 || hgt > 1 << 16 {
-            bail!("-h: picture height {hgt} must be in 1..=65536");
-        }
+    if let Some(pic) = pic {
         let img = lut_picture(&lut, hgt);
-        rnd_std::image_out::write_png_rgb(Path::new(&oi), &img, len, hgt)?;
+        rnd_std::image_out::write_png_rgb_to(pic, &img, len, hgt)?;
     }
-    nrrd::write(&n, Path::new(&o), WriteOptions::default())?;
+    out.commit(|w| nrrd::write_to(&n, WriteOptions::default(), w))?;
     Ok(())
 }

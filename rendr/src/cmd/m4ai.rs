@@ -41,10 +41,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         .affine_inverse()
         .with_context(|| format!("{f}: can't invert"))?;
     let p = am.mul(&ai);
-    print!("A =\n{}", matrix(&am, g9));
-    print!("Ai =\n{}", matrix(&ai, g9));
-    print!("A*Ai =\n{}", matrix(&p, g9));
-    println!(
+    out!("A =\n{}", matrix(&am, g9));
+    out!("Ai =\n{}", matrix(&ai, g9));
+    out!("A*Ai =\n{}", matrix(&p, g9));
+    outln!(
         "{} = FrobeniusNorm(P-I)   (should be nearly zero)",
         g9(p.frobenius_from_identity())
     );

@@ -11,7 +11,8 @@ pub static SPEC: CmdSpec = CmdSpec {
     about: "run many \"rendr go\" commands from one file, re-using volumes",
     info: "Each non-empty line of the command file is a complete \"rendr go ...\" command \
            (# starts a comment; \"!!\" repeats the previous command). They run in order as \
-           separate renderings, but a volume named again is not read again. Prints a \
+           separate renderings, but a volume named on consecutive lines is read once (only the \
+           last volume is kept in memory). Prints a \
            banner before and after each. Stops at the first failing line, naming it.",
     response_files: true,
     opts: &[req(
@@ -25,12 +26,12 @@ pub static SPEC: CmdSpec = CmdSpec {
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
     let f = a.get_str("i").unwrap_or_default();
-    let text = if f == "-" {
-        std::io::read_to_string(std::io::stdin()).context("can't read commands from stdin")?
-    } else {
-        std::fs::read_to_string(Path::new(&f)).with_context(|| format!("{f}: can't read"))?
-    };
+    let text = rnd_std::files::read_text(Path::new(&f), 64 << 20)?;
     let mut cache = super::go::VolumeCache::default();
+    // Outputs must overwrite neither the command file nor the @files of mgo's own line.
+    let inputs: Vec<String> = std::iter::once(f.clone())
+        .chain(a.response_files.iter().map(|p| p.to_string_lossy().into_owned()))
+        .collect();
     let mut prev: Option<String> = None;
     for (ln, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -50,7 +51,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                 ln + 1
             );
         }
-        println!("================== running: {line}");
+        outln!("================== running: {line}");
         let parsed = crate::args::parse(&super::go::SPEC, &words[2..]).map_err(|e| {
             anyhow::anyhow!(
                 "{f} line {}: {}",
@@ -61,9 +62,9 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                 }
             )
         })?;
-        super::go::run_cached(&parsed, &mut cache)
+        super::go::run_cached(&parsed, &mut cache, &inputs)
             .with_context(|| format!("{f} line {}", ln + 1))?;
-        println!("================== done");
+        outln!("================== done");
         prev = Some(line);
     }
     Ok(())

@@ -131,20 +131,17 @@ pub fn content(cmd: &str, a: &Args) -> String {
     s
 }
 
-/// Fails when output `out` names the same file as input `input`.
-pub fn check_not_input(out: &std::path::Path, input: &std::path::Path) -> anyhow::Result<()> {
-    if out.as_os_str() == "-" || input.as_os_str() == "-" {
-        return Ok(());
+/// Prepares output `path` of a command before any work: refused when it is the same
+/// file as one of `inputs` (a NRRD's detached data files included) or of the @files
+/// read; the directory is checked and the temporary file created now, so a wrong output
+/// is reported at once and a failed run leaves nothing behind.
+pub fn output(path: &str, a: &Args, inputs: &[&str]) -> anyhow::Result<rnd_std::output::Output> {
+    let mut all: Vec<std::path::PathBuf> = a.response_files.clone();
+    for i in inputs.iter().filter(|i| !i.is_empty() && **i != "x") {
+        all.extend(rnd_std::nrrd::input_files(std::path::Path::new(i)));
     }
-    let same = match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same {
-        anyhow::bail!(
-            "-o {}: output would overwrite the input file",
-            out.display()
-        );
-    }
-    Ok(())
+    Ok(rnd_std::output::Output::create(
+        std::path::Path::new(path),
+        &all,
+    )?)
 }

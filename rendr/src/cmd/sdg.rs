@@ -1,8 +1,7 @@
 //! `rendr sdg`: synthetic data generation.
 
-use std::path::Path;
 
-use anyhow::bail;
+use anyhow::{bail, Context};
 use rnd_core::sdg::{self, Grid};
 use rnd_std::nrrd::{self, Centering, Data, Encoding, Nrrd, WriteOptions};
 
@@ -106,21 +105,13 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             sizes[1],
             sizes[2]
         ),
-        Some(b) => {
-            if let Some(t) = rnd_std::mem_total() {
-                if b as u64 > t {
-                    bail!(
-                        "-sz: {} x {} x {} samples would need {} of memory; this machine has {}",
-                        sizes[0],
-                        sizes[1],
-                        sizes[2],
-                        rnd_std::human_bytes(b as u64),
-                        rnd_std::human_bytes(t)
-                    );
-                }
-            }
-        }
+        Some(b) => rnd_std::check_memory(
+            b as u64,
+            &format!("-sz: {} x {} x {} samples", sizes[0], sizes[1], sizes[2]),
+        )?,
     }
+    let o = a.get_str("o").unwrap_or_default();
+    let output = super::output(&o, a, &[]).with_context(|| format!("-o {o}"))?;
     let (vals, itow) = sdg::generate(which, &grid)?;
     let data = if short {
         let mut clipped = 0usize;
@@ -149,14 +140,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     h.space_origin = Some(itow.column3(3).to_vec());
     h.centerings = Some(vec![Centering::Cell; 3]);
     h.kinds = Some(vec!["domain".into(); 3]);
-    let o = a.get_str("o").unwrap_or_default();
-    nrrd::write(
-        &out,
-        Path::new(&o),
-        WriteOptions {
-            encoding: Encoding::Gzip,
-            ..Default::default()
-        },
-    )?;
+    let opt = WriteOptions {
+        encoding: Encoding::Gzip,
+        ..Default::default()
+    };
+    output.commit(|w| nrrd::write_to(&out, opt, w))?;
     Ok(())
 }

@@ -41,6 +41,6 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     } else {
         list9(&out)
     };
-    println!("{shown} = {f}({})", g9(v));
+    outln!("{shown} = {f}({})", g9(v));
     Ok(())
 }

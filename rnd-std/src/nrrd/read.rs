@@ -1,6 +1,6 @@
 //! Reading NRRD files (and plain-text arrays via [`super::text`]).
 
-use std::io::Read;
+use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
 use super::header::{Centering, Encoding, Endian, Header, ScalarType};
@@ -12,25 +12,177 @@ pub fn read(path: &Path) -> Result<Nrrd> {
     read_with_threads(path, 1)
 }
 
+/// Plain-text arrays (transfer functions, lights...) are read up to this size.
+pub const TEXT_MAX: u64 = 64 << 20;
+
+/// A NRRD header is read up to this size.
+pub const HEADER_MAX: usize = 1 << 20;
+
 /// [`read`], reading large raw data with `threads` threads at once (each fills its own
 /// part of the samples; the same result for any count).
+///
+/// Every input is read with a limit derived from what its header says it needs (see
+/// [`data_limit`]), never to its end: a pipe, a device such as `/dev/zero` or a data
+/// file far larger than its volume costs no more than the volume.
 pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
     if path.as_os_str() == "-" {
-        let mut b = Vec::new();
-        std::io::stdin()
-            .read_to_end(&mut b)
-            .map_err(|e| Error::io(path, "can't read", e))?;
-        return read_bytes(&b, Path::new(".")).map_err(|e| e.with_path(path));
+        return read_from(std::io::stdin().lock(), Path::new(".")).map_err(|e| e.with_path(path));
+    }
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, "can't read", e))?;
+    if meta.is_dir() {
+        return Err(Error::at(path, "is a directory, not a file"));
     }
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    match read_streaming(path, threads) {
-        Ok(Some(n)) => Ok(n),
-        Ok(None) => {
-            let b = std::fs::read(path).map_err(|e| Error::io(path, "can't read", e))?;
-            read_bytes(&b, &dir).map_err(|e| e.with_path(path))
+    if meta.is_file() {
+        match read_streaming(path, threads) {
+            Ok(Some(n)) => return Ok(n),
+            Ok(None) => {}
+            Err(e) => return Err(e.with_path(path)),
         }
-        Err(e) => Err(e.with_path(path)),
     }
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
+    read_from(f, &dir).map_err(|e| e.with_path(path))
+}
+
+/// Reads a NRRD or text array from any byte stream, bounded: the header up to
+/// [`HEADER_MAX`], the data up to [`data_limit`], a text array up to [`TEXT_MAX`].
+fn read_from(r: impl Read, dir: &Path) -> Result<Nrrd> {
+    use std::io::BufRead;
+    let mut r = std::io::BufReader::with_capacity(1 << 16, r);
+    let head = r.fill_buf().map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    if !head.starts_with(b"NRRD") {
+        let b = read_up_to(&mut r, TEXT_MAX + 1)?;
+        if b.len() as u64 > TEXT_MAX {
+            return Err(Error::msg(format!(
+                "not a NRRD file, and longer than the {} a text array may have",
+                crate::human_bytes(TEXT_MAX)
+            )));
+        }
+        return read_bytes(&b, dir);
+    }
+    let text = read_header_text(&mut r)?;
+    let (parsed, data_file) = parse_header(&text)?;
+    let data = match data_file {
+        None => {
+            let (n, nbytes) = data_size(&parsed)?;
+            if parsed.skips.byte < 0 {
+                return Err(Error::msg(
+                    "byte skip -1 (data at the end) needs a detached data file or a regular \
+                     file; this input has no end to count back from",
+                ));
+            }
+            let b = read_up_to(&mut r, data_limit(&parsed, n, nbytes))?;
+            decode(&parsed, &b, &parsed.skips)?
+        }
+        Some(files) => read_detached(&parsed, &files, dir)?,
+    };
+    let Parsed { header, .. } = parsed;
+    Ok(Nrrd { header, data })
+}
+
+/// The files reading `path` would read: `path` itself and, for a detached header, its
+/// data files (resolved as the reader resolves them). For checking that an output does
+/// not overwrite an input; a file that can't be read or parsed gives just itself (the
+/// reader reports the problem).
+pub fn input_files(path: &Path) -> Vec<PathBuf> {
+    let mut out = vec![path.to_path_buf()];
+    if path.as_os_str() == "-" || !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return out;
+    }
+    let Ok(f) = std::fs::File::open(path) else {
+        return out;
+    };
+    let mut r = std::io::BufReader::new(f);
+    if !r.fill_buf().is_ok_and(|h| h.starts_with(b"NRRD")) {
+        return out;
+    }
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    if let Ok((_, Some(files))) = read_header_text(&mut r).and_then(|t| parse_header(&t)) {
+        out.extend(files.iter().map(|f| {
+            if Path::new(f).is_absolute() {
+                PathBuf::from(f)
+            } else {
+                dir.join(f)
+            }
+        }));
+    }
+    out
+}
+
+/// Reads at most `limit` bytes of `r` (fewer at its end).
+fn read_up_to(r: impl Read, limit: u64) -> Result<Vec<u8>> {
+    let mut b = Vec::new();
+    r.take(limit)
+        .read_to_end(&mut b)
+        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    Ok(b)
+}
+
+/// How many bytes of input may hold the data of `n` samples (`nbytes` bytes) in the
+/// header's encoding, after its skips; reading stops there. The margins:
+/// - skips: the byte skip, plus 64 MiB when lines are skipped;
+/// - raw: exactly the data;
+/// - gzip and bzip2: the data plus 1/64 of it plus 1 MiB (both formats grow
+///   incompressible data by less than that);
+/// - hex: 3 characters per byte plus 1 MiB (two digits and room for line breaks);
+/// - ascii: 64 characters per value plus 1 MiB.
+pub fn data_limit_bytes(encoding: Encoding, n: usize, nbytes: usize, byte_skip: i64, line_skip: usize) -> u64 {
+    let skips = (byte_skip.max(0) as u64).saturating_add(if line_skip > 0 { 64 << 20 } else { 0 });
+    let (n, nb) = (n as u64, nbytes as u64);
+    let body = match encoding {
+        Encoding::Raw => nb,
+        Encoding::Gzip | Encoding::Bzip2 => nb.saturating_add(nb / 64).saturating_add(1 << 20),
+        Encoding::Hex => nb.saturating_mul(3).saturating_add(1 << 20),
+        Encoding::Ascii => n.saturating_mul(64).saturating_add(1 << 20),
+    };
+    skips.saturating_add(body)
+}
+
+fn data_limit(h: &Parsed, n: usize, nbytes: usize) -> u64 {
+    data_limit_bytes(h.encoding, n, nbytes, h.skips.byte, h.skips.line)
+}
+
+/// Reads a header: lines up to the first empty one, at most [`HEADER_MAX`] bytes (a
+/// line without end counts too), no NUL bytes. Text that is not UTF-8 is read as
+/// Latin-1, as Teem does (one character per byte).
+fn read_header_text(r: &mut impl std::io::BufRead) -> Result<String> {
+    let mut text = Vec::new();
+    loop {
+        let mut line = Vec::new();
+        let room = (HEADER_MAX + 1).saturating_sub(text.len()) as u64;
+        let n = r
+            .by_ref()
+            .take(room)
+            .read_until(b'\n', &mut line)
+            .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+        if n == 0 {
+            break;
+        }
+        if text.len() + line.len() > HEADER_MAX {
+            return Err(Error::msg(format!(
+                "NRRD header is longer than {}",
+                crate::human_bytes(HEADER_MAX as u64)
+            )));
+        }
+        let body = line.strip_suffix(b"\n").unwrap_or(&line);
+        let body = body.strip_suffix(b"\r").unwrap_or(body);
+        if body.is_empty() && !text.is_empty() {
+            break;
+        }
+        text.extend_from_slice(&line);
+    }
+    header_string(&text)
+}
+
+/// Header bytes as text: UTF-8 when valid, else Latin-1; NUL bytes refused.
+fn header_string(b: &[u8]) -> Result<String> {
+    if b.contains(&0) {
+        return Err(Error::msg("NRRD header contains a NUL byte (not a text header)"));
+    }
+    Ok(match std::str::from_utf8(b) {
+        Ok(s) => s.to_string(),
+        Err(_) => b.iter().map(|&c| c as char).collect(),
+    })
 }
 
 /// Reads an attached-header NRRD with raw, gzip or bzip2 data straight from the file into
@@ -39,11 +191,6 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
 /// -1), which the in-memory reader handles.
 fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     use std::io::BufRead;
-    // Pipes and other special files are read once, whole, by the in-memory reader.
-    match std::fs::metadata(path) {
-        Ok(m) if m.is_file() => {}
-        _ => return Ok(None),
-    }
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
     let file_len = f.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let mut r = std::io::BufReader::with_capacity(1 << 16, f);
@@ -51,30 +198,8 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     if !head.starts_with(b"NRRD") {
         return Ok(None);
     }
-    // Header: lines up to the first empty one (bounded).
-    let mut text = Vec::new();
-    loop {
-        let mut line = Vec::new();
-        let n = r
-            .read_until(b'\n', &mut line)
-            .map_err(|e| Error::io(path, "can't read", e))?;
-        if n == 0 {
-            break;
-        }
-        let body = line.strip_suffix(b"\n").unwrap_or(&line);
-        let body = body.strip_suffix(b"\r").unwrap_or(body);
-        if body.is_empty() && !text.is_empty() {
-            break;
-        }
-        text.extend_from_slice(&line);
-        if text.len() > 1 << 20 {
-            return Err(Error::msg("NRRD header is longer than 1 MiB"));
-        }
-    }
-    let header_len = text.len() as u64 + 1;
-    let text =
-        std::str::from_utf8(&text).map_err(|_| Error::msg("NRRD header is not valid text"))?;
-    let (parsed, data_file) = parse_header(text)?;
+    let text = read_header_text(&mut r)?;
+    let (parsed, data_file) = parse_header(&text)?;
     let enc = parsed.encoding;
     if data_file.is_some()
         || !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2)
@@ -84,28 +209,18 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     }
     let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
-    for _ in 0..parsed.skips.line {
-        let mut l = Vec::new();
-        if r.read_until(b'\n', &mut l)
+    skip_stream(&mut r, &parsed.skips)?;
+    let start = {
+        use std::io::Seek;
+        r.stream_position()
             .map_err(|e| Error::io(path, "can't read", e))?
-            == 0
-        {
-            return Err(Error::msg("line skip goes past the end of the data"));
-        }
-    }
-    let skip = parsed.skips.byte as u64;
-    if std::io::copy(&mut (&mut r).take(skip), &mut std::io::sink())
-        .map_err(|e| Error::io(path, "can't read", e))?
-        < skip
-    {
-        return Err(Error::msg("byte skip goes past the end of the data"));
-    }
-    if enc == Encoding::Raw && file_len.saturating_sub(header_len + skip) < nbytes as u64 {
+    };
+    if enc == Encoding::Raw && file_len.saturating_sub(start) < nbytes as u64 {
         return Err(Error::msg(format!(
             "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
             parsed.sizes,
             parsed.scalar,
-            file_len.saturating_sub(header_len + skip)
+            file_len.saturating_sub(start)
         )));
     }
     #[cfg(unix)]
@@ -124,10 +239,10 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         Encoding::Bzip2 => Box::new(bzip2::read::MultiBzDecoder::new(r)),
         _ => Box::new(r),
     };
-    let mut data = from_bytes(parsed.scalar, &[], parsed.endian, 0);
+    let mut data = from_f64(parsed.scalar, &[]);
     if enc == Encoding::Raw {
         // The file holds all the data (checked above): one allocation of the final size.
-        reserve_all(&mut data, n);
+        reserve_all(&mut data, n)?;
     }
     let mut chunk = vec![0u8; (1 << 20) / tsz * tsz];
     let mut got = 0usize;
@@ -146,12 +261,53 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         got += k;
         let avail = carry + k;
         let whole = avail / tsz * tsz;
-        append(&mut data, &chunk[..whole], parsed.endian, n);
+        append(&mut data, &chunk[..whole], parsed.endian, n)?;
         chunk.copy_within(whole..avail, 0);
         carry = avail - whole;
     }
+    if enc != Encoding::Raw {
+        check_stream_end(&mut src, enc)?;
+    }
     let Parsed { header, .. } = parsed;
     Ok(Some(Nrrd { header, data }))
+}
+
+/// Skips the header's line and byte skips in a stream: the lines within 64 MiB (the
+/// margin [`data_limit_bytes`] allows), without holding them.
+fn skip_stream(r: &mut impl std::io::BufRead, sk: &Skips) -> Result<()> {
+    let mut lines = r.by_ref().take(64 << 20);
+    for _ in 0..sk.line {
+        let n = lines
+            .skip_until(b'\n')
+            .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+        if n == 0 || lines.limit() == 0 {
+            return Err(Error::msg(
+                "line skip goes past the end of the data (or past 64 MiB of skipped lines)",
+            ));
+        }
+    }
+    let skip = sk.byte.max(0) as u64;
+    if std::io::copy(&mut r.by_ref().take(skip), &mut std::io::sink())
+        .map_err(|e| Error::msg(format!("can't read: {e}")))?
+        < skip
+    {
+        return Err(Error::msg("byte skip goes past the end of the data"));
+    }
+    Ok(())
+}
+
+/// After the data a compressed stream must give, reads on to its end when that is
+/// near, so the stream's own check (gzip's CRC-32, bzip2's block CRCs) is verified: a
+/// corrupt stream is refused, as Teem refuses it. Data beyond what the sizes need, and
+/// bytes after the last stream, are ignored.
+fn check_stream_end(src: &mut dyn Read, enc: Encoding) -> Result<()> {
+    let mut probe = [0u8; 1];
+    match src.read(&mut probe) {
+        Err(e) if e.to_string().contains("checksum") || e.to_string() == "Data" => Err(
+            Error::msg(format!("{} data is corrupt: {e}", enc.as_str())),
+        ),
+        _ => Ok(()),
+    }
 }
 
 /// Raw data of at least this many bytes is read by several threads when asked.
@@ -201,7 +357,15 @@ fn read_raw_parallel(
         threads: usize,
     ) -> std::io::Result<()> {
         use std::os::unix::fs::FileExt;
-        v.reserve_exact(n);
+        v.try_reserve_exact(n).map_err(|_| {
+            std::io::Error::new(
+                std::io::ErrorKind::OutOfMemory,
+                format!(
+                    "the system refused {} of memory for the data",
+                    crate::human_bytes(n.saturating_mul(T::SIZE) as u64)
+                ),
+            )
+        })?;
         advise_huge_pages(v.as_ptr() as usize, n * T::SIZE, false);
         let per = n.div_ceil(threads.max(1)).max(1);
         let parts = &mut v.spare_capacity_mut()[..n];
@@ -236,23 +400,25 @@ fn read_raw_parallel(
         unsafe { v.set_len(n) };
         Ok(())
     }
-    let mut data = from_bytes(scalar, &[], e, 0);
+    let mut data = from_f64(scalar, &[]);
     super::each_data!(&mut data, v => fill(v, f, off, e, n, threads))?;
     Ok(data)
 }
 
 /// Reserves room for `n` samples in `d` at once and, for large buffers, asks the kernel to
 /// back them with huge pages (fewer TLB misses when rays wander through a big volume).
-fn reserve_all(d: &mut Data, n: usize) {
-    fn reserve<T>(v: &mut Vec<T>, n: usize) {
-        v.reserve_exact(n);
+fn reserve_all(d: &mut Data, n: usize) -> Result<()> {
+    fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<()> {
+        v.try_reserve_exact(n)
+            .map_err(|_| out_of_memory(n.saturating_mul(std::mem::size_of::<T>())))?;
         advise_huge_pages(
             v.as_ptr() as usize,
             v.capacity() * std::mem::size_of::<T>(),
             true,
         );
+        Ok(())
     }
-    super::each_data!(d, v => reserve(v, n));
+    super::each_data!(d, v => reserve(v, n))
 }
 
 /// Advises huge pages for the whole 2 MiB pages inside `[addr, addr + len)` (Linux; a
@@ -308,17 +474,27 @@ fn populate(addr: usize, len: usize) {
 }
 
 /// Appends the samples in `b` (whole samples) to `d`, reserving up to `total` samples
-/// in steps as data arrives.
-fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) {
-    fn go<T: RawSample>(v: &mut Vec<T>, b: &[u8], e: Endian, total: usize) {
+/// in steps as data arrives (so a stream that ends early never costs what its header
+/// claimed); an allocation the system refuses is an error, not an abort.
+fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) -> Result<()> {
+    fn go<T: RawSample>(v: &mut Vec<T>, b: &[u8], e: Endian, total: usize) -> Result<()> {
         let add = b.len() / T::SIZE;
         if v.capacity() - v.len() < add {
             let grow = (v.len() + add).max(2 * v.len()).min(total);
-            v.reserve_exact(grow.saturating_sub(v.len()).max(add));
+            v.try_reserve_exact(grow.saturating_sub(v.len()).max(add))
+                .map_err(|_| out_of_memory(grow.saturating_mul(T::SIZE)))?;
         }
         v.extend(b.chunks_exact(T::SIZE).map(|c| T::get(c, e)));
+        Ok(())
     }
     super::each_data!(d, v => go(v, b, e, total))
+}
+
+fn out_of_memory(bytes: usize) -> Error {
+    Error::msg(format!(
+        "the system refused {} of memory for the data",
+        crate::human_bytes(bytes as u64)
+    ))
 }
 
 /// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data
@@ -330,47 +506,106 @@ pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
                 "not a NRRD file (looks like a bare gzip stream)",
             ));
         }
-        let text = std::str::from_utf8(bytes)
-            .map_err(|_| Error::msg("not a NRRD file (no NRRD magic) and not a text array"))?;
-        return super::text::parse_text(text);
+        // Text arrays written by hand may carry Latin-1 comments: read as for headers.
+        let text = header_string(bytes).map_err(|_| {
+            Error::msg("not a NRRD file (no NRRD magic) and not a text array (NUL bytes)")
+        })?;
+        return super::text::parse_text(&text);
     }
     let (hdr_text, data_off) = split_header(bytes)?;
-    let (header, data_file) = parse_header(hdr_text)?;
+    let (header, data_file) = parse_header(&hdr_text)?;
     let data = match data_file {
         None => decode(&header, &bytes[data_off..], &header.skips)?,
-        Some(files) => {
-            let mut all = Vec::new();
-            for f in &files {
-                let p = if Path::new(f).is_absolute() {
-                    PathBuf::from(f)
-                } else {
-                    dir.join(f)
-                };
-                let meta = std::fs::metadata(&p)
-                    .map_err(|e| Error::io(&p, "can't read detached data", e))?;
-                if !meta.is_file() {
-                    return Err(Error::at(&p, "detached data is not a regular file"));
-                }
-                let b =
-                    std::fs::read(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
-                all.push(b);
-            }
-            if all.len() == 1 {
-                decode(&header, &all[0], &header.skips)?
-            } else {
-                // Each file holds an equal slab; decode them as one by concatenating the
-                // decompressed/raw payloads after skips.
-                let mut joined = Vec::new();
-                for b in &all {
-                    joined.extend_from_slice(skip_bytes(b, &header.skips, None)?);
-                }
-                let no_skip = Skips::default();
-                decode(&header, &joined, &no_skip)?
-            }
-        }
+        Some(files) => read_detached(&header, &files, dir)?,
     };
     let Parsed { header, .. } = header;
     Ok(Nrrd { header, data })
+}
+
+/// Reads and decodes detached data files: each file is read only up to what its share
+/// of the samples can need ([`data_limit_bytes`]), so a data file far larger than the
+/// volume, or one file named many times, costs no more than the volume. Several files
+/// must share the samples equally.
+fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
+    let (n, nbytes) = data_size(h)?;
+    let k = files.len();
+    if k == 0 {
+        return Err(Error::msg("data file: LIST names no files"));
+    }
+    if n % k != 0 {
+        return Err(Error::msg(format!(
+            "data file: {k} files can't hold {n} samples in equal parts"
+        )));
+    }
+    let (share_n, share_bytes) = (n / k, nbytes / k);
+    let limit = data_limit(h, share_n, share_bytes);
+    let read_one = |f: &String| -> Result<Vec<u8>> {
+        let p = if Path::new(f).is_absolute() {
+            PathBuf::from(f)
+        } else {
+            dir.join(f)
+        };
+        let meta =
+            std::fs::metadata(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
+        if meta.is_dir() {
+            return Err(Error::at(&p, "detached data is a directory, not a file"));
+        }
+        let mut file =
+            std::fs::File::open(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
+        if h.skips.byte == -1 && h.encoding == Encoding::Raw {
+            // The data are the file's last bytes: seek there (regular files only).
+            use std::io::{Seek, SeekFrom};
+            if !meta.is_file() {
+                return Err(Error::at(
+                    &p,
+                    "byte skip -1 (data at the end) needs a regular file",
+                ));
+            }
+            if meta.len() < share_bytes as u64 {
+                return Err(Error::at(
+                    &p,
+                    format!(
+                        "data is truncated: need {share_bytes} bytes, file has {}",
+                        meta.len()
+                    ),
+                ));
+            }
+            file.seek(SeekFrom::Start(meta.len() - share_bytes as u64))
+                .map_err(|e| Error::io(&p, "can't read detached data", e))?;
+            return read_up_to(file, share_bytes as u64).map_err(|e| e.with_path(&p));
+        }
+        read_up_to(file, limit).map_err(|e| e.with_path(&p))
+    };
+    let end_skip = Skips {
+        line: h.skips.line,
+        byte: if h.skips.byte == -1 { 0 } else { h.skips.byte },
+    };
+    if k == 1 {
+        let b = read_one(&files[0])?;
+        let sk = if h.skips.byte == -1 && h.encoding == Encoding::Raw {
+            Skips::default()
+        } else {
+            h.skips
+        };
+        return decode(h, &b, &sk);
+    }
+    // Each file holds an equal share; their payloads after the skips are decoded as
+    // one (concatenated compressed streams are one stream to the decoders).
+    let mut joined = Vec::new();
+    for f in files {
+        let b = read_one(f)?;
+        let b = if h.skips.byte == -1 && h.encoding == Encoding::Raw {
+            &b[..]
+        } else {
+            skip_bytes(&b, &end_skip, None)?
+        };
+        if h.encoding == Encoding::Raw {
+            joined.extend_from_slice(&b[..b.len().min(share_bytes)]);
+        } else {
+            joined.extend_from_slice(b);
+        }
+    }
+    decode(h, &joined, &Skips::default())
 }
 
 /// Header plus reading-only fields.
@@ -392,7 +627,7 @@ struct Skips {
     byte: i64,
 }
 
-fn split_header(bytes: &[u8]) -> Result<(&str, usize)> {
+fn split_header(bytes: &[u8]) -> Result<(String, usize)> {
     // The header ends at the first empty line (or at EOF for detached headers).
     let mut pos = 0;
     let mut end = bytes.len();
@@ -417,8 +652,13 @@ fn split_header(bytes: &[u8]) -> Result<(&str, usize)> {
             }
         }
     }
-    let text = std::str::from_utf8(&bytes[..end.min(bytes.len())])
-        .map_err(|_| Error::msg("NRRD header is not valid text"))?;
+    if end > HEADER_MAX {
+        return Err(Error::msg(format!(
+            "NRRD header is longer than {}",
+            crate::human_bytes(HEADER_MAX as u64)
+        )));
+    }
+    let text = header_string(&bytes[..end.min(bytes.len())])?;
     Ok((text, data_off.min(bytes.len())))
 }
 
@@ -517,6 +757,40 @@ fn vector_items(v: &str) -> Vec<String> {
 /// Largest number of dimensions accepted.
 const MAX_DIM: usize = 16;
 
+/// The header fields a NRRD may give once each.
+const KNOWN_FIELDS: &[&str] = &[
+    "type",
+    "dimension",
+    "sizes",
+    "encoding",
+    "endian",
+    "content",
+    "space",
+    "space dimension",
+    "space origin",
+    "byte skip",
+    "line skip",
+    "data file",
+    "space directions",
+    "spacings",
+    "axis mins",
+    "axis maxs",
+    "centerings",
+    "kinds",
+    "labels",
+    "thicknesses",
+    "units",
+    "space units",
+    "measurement frame",
+    "block size",
+    "min",
+    "max",
+    "old min",
+    "old max",
+    "number",
+    "sample units",
+];
+
 fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
     let mut lines = text.lines();
     let magic = lines.next().unwrap_or("").trim_end();
@@ -543,6 +817,7 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
     let mut skips = Skips::default();
     let mut data_file: Option<Vec<String>> = None;
     let mut list_mode = false;
+    let mut seen: Vec<&'static str> = Vec::new();
     // Raw field strings that need the dimension to parse; parsed after the loop.
     let mut per_axis: Vec<(String, String)> = Vec::new();
     for (ln, line) in lines.enumerate() {
@@ -577,6 +852,25 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
         };
         let field = field.trim().to_ascii_lowercase();
         let value = value.trim();
+        let canon = match field.as_str() {
+            "byteskip" => "byte skip",
+            "lineskip" => "line skip",
+            "datafile" => "data file",
+            "axismins" => "axis mins",
+            "axismaxs" => "axis maxs",
+            "centers" => "centerings",
+            f => f,
+        };
+        if let Some(&known) = KNOWN_FIELDS.iter().find(|&&k| k == canon) {
+            // Teem refuses a field given twice rather than letting one copy win.
+            if seen.contains(&known) {
+                return Err(Error::msg(format!(
+                    "header line {}: field \"{known}\" given twice",
+                    ln + 2
+                )));
+            }
+            seen.push(known);
+        }
         match field.as_str() {
             "type" => {
                 scalar = Some(ScalarType::parse(value).ok_or_else(|| {
@@ -791,21 +1085,24 @@ fn expand_format(value: &str) -> Result<Vec<String>> {
             .map_err(|_| Error::msg(format!("data file: can't parse \"{s}\" as an integer")))
     };
     let (min, max, step) = (num(w[1])?, num(w[2])?, num(w[3])?);
-    if step == 0 || (max - min) / step < 0 || (max - min) / step > 100_000 {
+    // In i128 the range and count cannot overflow; the names are generated by count,
+    // so no counter can wrap.
+    let span = max as i128 - min as i128;
+    let count = if step == 0 { -1 } else { span / step as i128 };
+    if !(0..MAX_DATA_FILES as i128).contains(&count) {
         return Err(Error::msg(format!(
-            "data file: bad range {min} {max} {step}"
+            "data file: range {min} {max} {step} does not give 1 to {MAX_DATA_FILES} files"
         )));
     }
-    let mut out = Vec::new();
-    let mut i = min;
-    while (step > 0 && i <= max) || (step < 0 && i >= max) {
-        out.push(format_printf_int(w[0], i)?);
-        i += step;
-    }
-    Ok(out)
+    (0..=count)
+        .map(|i| format_printf_int(w[0], (min as i128 + i * step as i128) as i64))
+        .collect()
 }
 
-/// Expands one `%d` / `%03d`-style conversion.
+/// At most this many detached data files.
+const MAX_DATA_FILES: usize = 100_000;
+
+/// Expands one `%d` / `%03d`-style conversion (field width at most 64).
 fn format_printf_int(fmt: &str, v: i64) -> Result<String> {
     let Some(p) = fmt.find('%') else {
         return Ok(fmt.to_string());
@@ -820,7 +1117,19 @@ fn format_printf_int(fmt: &str, v: i64) -> Result<String> {
             "data file: only %d formats are supported (\"{fmt}\")"
         )));
     }
-    let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
+    let digits = spec.trim_start_matches('0');
+    let width: usize = if digits.is_empty() {
+        0
+    } else {
+        match digits.parse::<usize>() {
+            Ok(w) if w <= 64 => w,
+            _ => {
+                return Err(Error::msg(format!(
+                    "data file: field width \"{spec}\" in \"{fmt}\" is not a number up to 64"
+                )))
+            }
+        }
+    };
     let s = if spec.starts_with('0') {
         format!("{v:0width$}")
     } else {
@@ -855,18 +1164,9 @@ fn skip_bytes<'a>(b: &'a [u8], sk: &Skips, need: Option<usize>) -> Result<&'a [u
     Ok(&b[s..])
 }
 
-/// Refuses requests for more bytes than the machine has memory.
+/// Refuses requests for more bytes than this process may allocate.
 pub(crate) fn check_memory(bytes: usize, what: &str) -> Result<()> {
-    if let Some(total) = crate::mem_total() {
-        if bytes as u64 > total {
-            return Err(Error::msg(format!(
-                "{what} would need {} of memory; this machine has {}",
-                crate::human_bytes(bytes as u64),
-                crate::human_bytes(total)
-            )));
-        }
-    }
-    Ok(())
+    crate::check_memory(bytes as u64, what)
 }
 
 /// Number of samples and bytes the header asks for, refused when they overflow or exceed
@@ -898,21 +1198,20 @@ fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
             let b = skip_bytes(raw, skips, None)?;
             let mut out = Vec::new();
             let lim = nbytes as u64;
-            let r = if h.encoding == Encoding::Gzip {
-                flate2::read::MultiGzDecoder::new(b)
-                    .take(lim)
-                    .read_to_end(&mut out)
+            let mut dec: Box<dyn Read> = if h.encoding == Encoding::Gzip {
+                Box::new(flate2::read::MultiGzDecoder::new(b))
             } else {
-                bzip2::read::MultiBzDecoder::new(b)
-                    .take(lim)
-                    .read_to_end(&mut out)
+                Box::new(bzip2::read::MultiBzDecoder::new(b))
             };
-            r.map_err(|e| {
+            (&mut dec).take(lim).read_to_end(&mut out).map_err(|e| {
                 Error::msg(format!(
                     "{} data can't be decompressed: {e}",
                     h.encoding.as_str()
                 ))
             })?;
+            if out.len() == nbytes {
+                check_stream_end(&mut dec, h.encoding)?;
+            }
             if out.len() < nbytes {
                 return Err(Error::msg(format!(
                     "data is truncated: {} stream gave {} bytes, sizes {:?} of {} need {nbytes}",
@@ -963,7 +1262,7 @@ fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
             return ascii_data(h.scalar, text, n);
         }
     };
-    Ok(from_bytes(h.scalar, &bytes, h.endian, n))
+    from_bytes(h.scalar, &bytes, h.endian, n)
 }
 
 fn ascii_data(t: ScalarType, text: &str, n: usize) -> Result<Data> {
@@ -1004,10 +1303,10 @@ pub(crate) fn from_f64(t: ScalarType, v: &[f64]) -> Data {
     }
 }
 
-fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Data {
+fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Result<Data> {
     let mut d = from_f64(t, &[]);
-    append(&mut d, &b[..n * t.size()], e, n);
-    d
+    append(&mut d, &b[..n * t.size()], e, n)?;
+    Ok(d)
 }
 
 /// Centering helper for callers: per-axis centring or Unknown.

@@ -47,19 +47,38 @@ fn vec3(v: &[f64]) -> String {
     )
 }
 
-/// Serializes `n` with options `opt` into `w`.
+/// The `content:` line is cut to this many characters (an ellipsis marks the cut), so
+/// that a long command line (a large @file) still gives a header rendr and Teem read.
+pub const CONTENT_MAX: usize = 4096;
+
+/// Header text on one line: control characters (a newline would end the field and
+/// forge the next) shown as escapes.
+fn one_line(t: &str) -> String {
+    crate::error::escape_controls(t).into_owned()
+}
+
+fn content_line(c: &str) -> String {
+    let c = one_line(c);
+    match c.char_indices().nth(CONTENT_MAX) {
+        None => c,
+        Some((cut, _)) => format!("{} ...", &c[..cut]),
+    }
+}
+
+/// Serializes `n` with options `opt` into `w`. Text fields are written on one line
+/// each (control characters escaped), the content cut to [`CONTENT_MAX`] characters.
 pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
     let h = &n.header;
     let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
     let mut s = String::from("NRRD0004\n");
     s.push_str("# Complete NRRD file format specification at:\n# http://teem.sourceforge.net/nrrd/format.html\n");
     if let Some(c) = &h.content {
-        s.push_str(&format!("content: {}\n", c.replace('\n', " ")));
+        s.push_str(&format!("content: {}\n", content_line(c)));
     }
     s.push_str(&format!("type: {}\n", h.scalar.as_str()));
     s.push_str(&format!("dimension: {}\n", h.sizes.len()));
     if let Some(sp) = &h.space {
-        s.push_str(&format!("space: {sp}\n"));
+        s.push_str(&format!("space: {}\n", one_line(sp)));
     } else if let Some(d) = h.space_dimension {
         s.push_str(&format!("space dimension: {d}\n"));
     }
@@ -95,13 +114,13 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
         ));
     }
     if let Some(k) = &h.kinds {
-        s.push_str(&format!("kinds: {}\n", k.join(" ")));
+        s.push_str(&format!("kinds: {}\n", one_line(&k.join(" "))));
     }
     if let Some(l) = &h.labels {
         s.push_str(&format!(
             "labels: {}\n",
             l.iter()
-                .map(|x| format!("\"{x}\""))
+                .map(|x| format!("\"{}\"", one_line(x)))
                 .collect::<Vec<_>>()
                 .join(" ")
         ));
@@ -117,7 +136,7 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
         s.push_str(&format!("space origin: {}\n", vec3(o)));
     }
     for (k, v) in &h.key_values {
-        s.push_str(&format!("{k}:={v}\n"));
+        s.push_str(&format!("{}:={}\n", one_line(k), one_line(v)));
     }
     s.push('\n');
     w.write_all(s.as_bytes()).map_err(io)?;
