@@ -181,7 +181,10 @@ pub fn tokenize_response(bytes: &[u8]) -> Result<Vec<String>, String> {
     let mut out = Vec::new();
     for line in bytes.split(|&b| b == b'\n') {
         let code = line.split(|&b| b == b'#').next().unwrap_or(&[]);
-        for w in code.split(u8::is_ascii_whitespace).filter(|w| !w.is_empty()) {
+        for w in code
+            .split(u8::is_ascii_whitespace)
+            .filter(|w| !w.is_empty())
+        {
             let w = std::str::from_utf8(w).map_err(|_| {
                 format!(
                     "the word \"{}\" is not valid UTF-8",
@@ -199,7 +202,7 @@ pub const RESPONSE_MAX_BYTES: u64 = 64 << 20;
 /// At most this many response files are read (each inclusion counts).
 pub const RESPONSE_MAX_FILES: usize = 1000;
 /// At most this many words after expansion.
-pub const RESPONSE_MAX_WORDS: usize = 1 << 20;
+pub const RESPONSE_MAX_WORDS: usize = 1 << 22;
 /// Response files nest at most this deep.
 pub const RESPONSE_MAX_DEPTH: usize = 8;
 
@@ -256,7 +259,9 @@ impl Expander {
             let room = RESPONSE_MAX_BYTES - self.bytes;
             let mut text = Vec::new();
             std::fs::File::open(&path)
-                .and_then(|r| std::io::Read::read_to_end(&mut std::io::Read::take(r, room + 1), &mut text))
+                .and_then(|r| {
+                    std::io::Read::read_to_end(&mut std::io::Read::take(r, room + 1), &mut text)
+                })
                 .map_err(|e| bad(format!("can't read response file: {e}")))?;
             if text.len() as u64 > room {
                 return Err(bad(format!(

@@ -90,10 +90,7 @@ fn arguments() -> Result<Vec<String>, String> {
 fn report(cmd: &str, msg: &str) {
     let one = msg.replace(['\n', '\r'], " ");
     let sep = if cmd.is_empty() { "" } else { " " };
-    eprintln!(
-        "rendr{sep}{cmd}: {}",
-        rnd_std::error::escape_controls(&one)
-    );
+    eprintln!("rendr{sep}{cmd}: {}", rnd_std::error::escape_controls(&one));
 }
 
 fn main() -> ExitCode {

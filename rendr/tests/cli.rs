@@ -993,7 +993,7 @@ fn bad_input_corpus() {
             "must be less than far clip",
         ),
         (&["-fov", "inf", "-o", "o.nrrd"], "-fov"),
-        (&["-o", "cube.nrrd"], "output would overwrite the input"),
+        (&["-o", "cube.nrrd"], "would overwrite the input"),
         (&["-o", "nodir/o.nrrd"], "can't create output"),
         (
             &["-i", "missing.nrrd", "-o", "o.nrrd"],

@@ -75,11 +75,7 @@ impl fmt::Display for Error {
         let msg = escape_controls(&self.msg);
         match &self.path {
             Some(p) if p.as_os_str() == "-" => write!(f, "(stdin): {msg}"),
-            Some(p) => write!(
-                f,
-                "{}: {msg}",
-                escape_controls(&p.display().to_string())
-            ),
+            Some(p) => write!(f, "{}: {msg}", escape_controls(&p.display().to_string())),
             None => f.write_str(&msg),
         }
     }

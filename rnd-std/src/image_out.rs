@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use crate::output::{write_atomic, Output};
 use crate::nrrd::{self, Data, Nrrd, WriteOptions};
+use crate::output::{write_atomic, Output};
 use crate::{Error, Result};
 
 /// An image of `channels` floats per pixel, `size[0]` × `size[1]` pixels, top row first.

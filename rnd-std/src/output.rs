@@ -349,16 +349,33 @@ pub fn stdout() -> Result<File> {
 #[cfg(unix)]
 fn stdout_file() -> Result<File> {
     use std::os::fd::FromRawFd;
+    let closed = || Error::msg("(stdout): standard output is closed; nowhere to write the output");
     // SAFETY: fcntl(F_DUPFD_CLOEXEC) on descriptor 1 only duplicates it (or fails with
     // EBADF when it is closed); it touches no memory.
     let fd = unsafe { libc::fcntl(1, libc::F_DUPFD_CLOEXEC, 3) };
     if fd < 0 {
-        return Err(Error::msg(
-            "(stdout): standard output is closed; nowhere to write the output",
-        ));
+        return Err(closed());
     }
     // SAFETY: `fd` was just created by fcntl and is owned by nothing else.
-    Ok(unsafe { File::from_raw_fd(fd) })
+    let f = unsafe { File::from_raw_fd(fd) };
+    // Rust's runtime opens /dev/null read-write on a descriptor 0-2 that a program was
+    // started without; a shell's `>/dev/null` opens it write-only. So descriptor 1 on
+    // /dev/null read-write means standard output was closed.
+    // SAFETY: F_GETFL only reads the descriptor's flags.
+    let flags = unsafe { libc::fcntl(fd, libc::F_GETFL) };
+    if flags >= 0 && flags & libc::O_ACCMODE == libc::O_RDWR && is_dev_null(&f) {
+        return Err(closed());
+    }
+    Ok(f)
+}
+
+#[cfg(unix)]
+fn is_dev_null(f: &File) -> bool {
+    use std::os::unix::fs::{FileTypeExt, MetadataExt};
+    match (f.metadata(), std::fs::metadata("/dev/null")) {
+        (Ok(a), Ok(b)) => a.file_type().is_char_device() && a.rdev() == b.rdev(),
+        _ => false,
+    }
 }
 
 #[cfg(not(unix))]
@@ -380,7 +397,6 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::io::Write as _;
 
     fn tmpdir(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!(
@@ -433,11 +449,16 @@ mod tests {
         // The output itself a link to another file: the link is replaced.
         let out = d.join("out.txt");
         std::os::unix::fs::symlink(&victim, &out).unwrap();
-        write_atomic(&out, |w| w.write_all(b"new").map_err(|e| Error::msg(e.to_string())))
-            .unwrap();
+        write_atomic(&out, |w| {
+            w.write_all(b"new").map_err(|e| Error::msg(e.to_string()))
+        })
+        .unwrap();
         assert_eq!(std::fs::read(&victim).unwrap(), b"victim");
         assert_eq!(std::fs::read(&out).unwrap(), b"new");
-        assert!(!std::fs::symlink_metadata(&out).unwrap().file_type().is_symlink());
+        assert!(!std::fs::symlink_metadata(&out)
+            .unwrap()
+            .file_type()
+            .is_symlink());
         let _ = std::fs::remove_dir_all(d);
     }
 
@@ -449,8 +470,10 @@ mod tests {
         let p = d.join("o");
         std::fs::write(&p, b"old").unwrap();
         std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).unwrap();
-        write_atomic(&p, |w| w.write_all(b"new").map_err(|e| Error::msg(e.to_string())))
-            .unwrap();
+        write_atomic(&p, |w| {
+            w.write_all(b"new").map_err(|e| Error::msg(e.to_string()))
+        })
+        .unwrap();
         let m = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
         assert_eq!(m, 0o600);
         let _ = std::fs::remove_dir_all(d);
@@ -489,8 +512,10 @@ mod tests {
         let d = tmpdir("long");
         let name = "n".repeat(250);
         let p = d.join(&name);
-        write_atomic(&p, |w| w.write_all(b"x").map_err(|e| Error::msg(e.to_string())))
-            .unwrap();
+        write_atomic(&p, |w| {
+            w.write_all(b"x").map_err(|e| Error::msg(e.to_string()))
+        })
+        .unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"x");
         let _ = std::fs::remove_dir_all(d);
     }

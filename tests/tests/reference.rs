@@ -335,10 +335,12 @@ fn threads_give_identical_images() {
             for reference in [false, true] {
                 p.reference = reference;
                 let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false).unwrap();
+                let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false)
+                    .unwrap();
                 for n in [2, 7] {
                     let many =
-                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false).unwrap();
+                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false)
+                            .unwrap();
                     let same = one
                         .iter()
                         .zip(&many)

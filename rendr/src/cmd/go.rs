@@ -339,10 +339,7 @@ pub fn run_cached(
     // The output is prepared before anything is read or rendered (and with -db there
     // is none).
     let output = match (&out, debug) {
-        (Some(o), false) => Some(
-            super::output(&o.to_string_lossy(), a, &inputs)
-                .with_context(|| format!("-o {}", o.display()))?,
-        ),
+        (Some(o), false) => Some(super::output(&o.to_string_lossy(), a, &inputs).context("-o")?),
         _ => None,
     };
     let lut = a
@@ -404,8 +401,8 @@ pub fn run_cached(
     }
     let [w, h] = spec.size();
     let t0 = std::time::Instant::now();
-    let data = rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress)
-        .context("-sz")?;
+    let data =
+        rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress).context("-sz")?;
     if std::env::var("RND_VERBOSE")
         .ok()
         .and_then(|v| v.parse::<i32>().ok())

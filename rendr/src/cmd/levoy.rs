@@ -45,7 +45,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         bail!("-sz: sizes {sv} {sg} must be > 0 with at most 2^26 samples");
     }
     let o = a.get_str("o").unwrap_or_default();
-    let output = super::output(&o, a, &[f.as_str()]).with_context(|| format!("-o {o}"))?;
+    let output = super::output(&o, a, &[f.as_str()]).context("-o")?;
     let lev = rnd_std::files::load_levoy(Path::new(&f))?;
     let mut out = Vec::with_capacity(sv * sg);
     for j in 0..sg {

@@ -30,7 +30,11 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let mut cache = super::go::VolumeCache::default();
     // Outputs must overwrite neither the command file nor the @files of mgo's own line.
     let inputs: Vec<String> = std::iter::once(f.clone())
-        .chain(a.response_files.iter().map(|p| p.to_string_lossy().into_owned()))
+        .chain(
+            a.response_files
+                .iter()
+                .map(|p| p.to_string_lossy().into_owned()),
+        )
         .collect();
     let mut prev: Option<String> = None;
     for (ln, raw) in text.lines().enumerate() {

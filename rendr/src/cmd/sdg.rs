@@ -1,6 +1,5 @@
 //! `rendr sdg`: synthetic data generation.
 
-
 use anyhow::{bail, Context};
 use rnd_core::sdg::{self, Grid};
 use rnd_std::nrrd::{self, Centering, Data, Encoding, Nrrd, WriteOptions};
@@ -111,7 +110,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         )?,
     }
     let o = a.get_str("o").unwrap_or_default();
-    let output = super::output(&o, a, &[]).with_context(|| format!("-o {o}"))?;
+    let output = super::output(&o, a, &[]).context("-o")?;
     let (vals, itow) = sdg::generate(which, &grid)?;
     let data = if short {
         let mut clipped = 0usize;

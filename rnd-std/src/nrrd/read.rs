@@ -49,8 +49,15 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
 fn read_from(r: impl Read, dir: &Path) -> Result<Nrrd> {
     use std::io::BufRead;
     let mut r = std::io::BufReader::with_capacity(1 << 16, r);
-    let head = r.fill_buf().map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    let head = r
+        .fill_buf()
+        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
     if !head.starts_with(b"NRRD") {
+        if head.contains(&0) {
+            return Err(Error::msg(
+                "not a NRRD file (no NRRD magic) and not a text array (NUL bytes)",
+            ));
+        }
         let b = read_up_to(&mut r, TEXT_MAX + 1)?;
         if b.len() as u64 > TEXT_MAX {
             return Err(Error::msg(format!(
@@ -126,7 +133,13 @@ fn read_up_to(r: impl Read, limit: u64) -> Result<Vec<u8>> {
 ///   incompressible data by less than that);
 /// - hex: 3 characters per byte plus 1 MiB (two digits and room for line breaks);
 /// - ascii: 64 characters per value plus 1 MiB.
-pub fn data_limit_bytes(encoding: Encoding, n: usize, nbytes: usize, byte_skip: i64, line_skip: usize) -> u64 {
+pub fn data_limit_bytes(
+    encoding: Encoding,
+    n: usize,
+    nbytes: usize,
+    byte_skip: i64,
+    line_skip: usize,
+) -> u64 {
     let skips = (byte_skip.max(0) as u64).saturating_add(if line_skip > 0 { 64 << 20 } else { 0 });
     let (n, nb) = (n as u64, nbytes as u64);
     let body = match encoding {
@@ -177,7 +190,9 @@ fn read_header_text(r: &mut impl std::io::BufRead) -> Result<String> {
 /// Header bytes as text: UTF-8 when valid, else Latin-1; NUL bytes refused.
 fn header_string(b: &[u8]) -> Result<String> {
     if b.contains(&0) {
-        return Err(Error::msg("NRRD header contains a NUL byte (not a text header)"));
+        return Err(Error::msg(
+            "NRRD header contains a NUL byte (not a text header)",
+        ));
     }
     Ok(match std::str::from_utf8(b) {
         Ok(s) => s.to_string(),
@@ -303,9 +318,9 @@ fn skip_stream(r: &mut impl std::io::BufRead, sk: &Skips) -> Result<()> {
 fn check_stream_end(src: &mut dyn Read, enc: Encoding) -> Result<()> {
     let mut probe = [0u8; 1];
     match src.read(&mut probe) {
-        Err(e) if e.to_string().contains("checksum") || e.to_string() == "Data" => Err(
-            Error::msg(format!("{} data is corrupt: {e}", enc.as_str())),
-        ),
+        Err(e) if e.to_string().contains("checksum") || e.to_string() == "Data" => {
+            Err(Error::msg(format!("{} data is corrupt: {e}", enc.as_str())))
+        }
         _ => Ok(()),
     }
 }
