@@ -206,6 +206,33 @@ pub const RESPONSE_MAX_WORDS: usize = 1 << 22;
 /// Response files nest at most this deep.
 pub const RESPONSE_MAX_DEPTH: usize = 8;
 
+/// Reads a response file of at most `room` bytes, stopping at the first NUL byte (a
+/// binary file or `/dev/zero` is refused after one block).
+fn read_response(path: &std::path::Path, room: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).map_err(|e| format!("can't read response file: {e}"))?;
+    let mut text = Vec::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = match f.read(&mut buf) {
+            Ok(0) => return Ok(text),
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(format!("can't read response file: {e}")),
+        };
+        if buf[..n].contains(&0) {
+            return Err("is not a text file (it holds NUL bytes)".into());
+        }
+        if (text.len() + n) as u64 > room {
+            return Err(format!(
+                "response files hold more than {} in all",
+                rnd_std::human_bytes(RESPONSE_MAX_BYTES)
+            ));
+        }
+        text.extend_from_slice(&buf[..n]);
+    }
+}
+
 /// Expands `@file`s within the limits above; a file that includes itself (directly or
 /// through others) is refused.
 #[derive(Default)]
@@ -257,21 +284,7 @@ impl Expander {
                 )));
             }
             let room = RESPONSE_MAX_BYTES - self.bytes;
-            let mut text = Vec::new();
-            std::fs::File::open(&path)
-                .and_then(|r| {
-                    std::io::Read::read_to_end(&mut std::io::Read::take(r, room + 1), &mut text)
-                })
-                .map_err(|e| bad(format!("can't read response file: {e}")))?;
-            if text.len() as u64 > room {
-                return Err(bad(format!(
-                    "response files hold more than {} in all",
-                    rnd_std::human_bytes(RESPONSE_MAX_BYTES)
-                )));
-            }
-            if text.contains(&0) {
-                return Err(bad("is not a text file (it holds NUL bytes)".into()));
-            }
+            let text = read_response(&path, room).map_err(bad)?;
             self.bytes += text.len() as u64;
             let words = tokenize_response(&text).map_err(bad)?;
             self.read.push(path);
