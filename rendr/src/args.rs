@@ -206,33 +206,6 @@ pub const RESPONSE_MAX_WORDS: usize = 1 << 22;
 /// Response files nest at most this deep.
 pub const RESPONSE_MAX_DEPTH: usize = 8;
 
-/// Reads a response file of at most `room` bytes, stopping at the first NUL byte (a
-/// binary file or `/dev/zero` is refused after one block).
-fn read_response(path: &std::path::Path, room: u64) -> Result<Vec<u8>, String> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).map_err(|e| format!("can't read response file: {e}"))?;
-    let mut text = Vec::new();
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = match f.read(&mut buf) {
-            Ok(0) => return Ok(text),
-            Ok(n) => n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(format!("can't read response file: {e}")),
-        };
-        if buf[..n].contains(&0) {
-            return Err("is not a text file (it holds NUL bytes)".into());
-        }
-        if (text.len() + n) as u64 > room {
-            return Err(format!(
-                "response files hold more than {} in all",
-                rnd_std::human_bytes(RESPONSE_MAX_BYTES)
-            ));
-        }
-        text.extend_from_slice(&buf[..n]);
-    }
-}
-
 /// Expands `@file`s within the limits above; a file that includes itself (directly or
 /// through others) is refused.
 #[derive(Default)]
@@ -284,7 +257,17 @@ impl Expander {
                 )));
             }
             let room = RESPONSE_MAX_BYTES - self.bytes;
-            let text = read_response(&path, room).map_err(bad)?;
+            let text = rnd_std::files::read_text_bytes(&path, room).map_err(|e| {
+                // The limit is on all response files together.
+                if e.msg.starts_with("longer than") {
+                    bad(format!(
+                        "response files hold more than {} in all",
+                        rnd_std::human_bytes(RESPONSE_MAX_BYTES)
+                    ))
+                } else {
+                    bad(e.msg)
+                }
+            })?;
             self.bytes += text.len() as u64;
             let words = tokenize_response(&text).map_err(bad)?;
             self.read.push(path);

@@ -194,32 +194,48 @@ pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
 
 pub use crate::output::{remove_temp_files, write_atomic};
 
-/// Reads a UTF-8 text file (`-` = stdin) of at most `limit` bytes: a longer input, one
-/// with NUL bytes (a binary file, `/dev/zero`) or one that is not UTF-8 is refused
-/// without reading past the limit.
+/// Reads a text file's bytes (`-` = stdin), at most `limit` of them, block by block:
+/// a longer input, or one with a NUL byte (a binary file, `/dev/zero`), is refused as
+/// soon as that shows, without reading on.
 ///
 /// # Errors
-/// Unreadable, too long, NUL bytes, not UTF-8 (each naming the file).
-pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+/// Unreadable, a directory, too long, NUL bytes (each naming the file).
+pub fn read_text_bytes(path: &Path, limit: u64) -> Result<Vec<u8>> {
     use std::io::Read;
-    let mut b = Vec::new();
-    let r = if path.as_os_str() == "-" {
-        std::io::stdin().lock().take(limit + 1).read_to_end(&mut b)
+    let mut src: Box<dyn Read> = if path.as_os_str() == "-" {
+        Box::new(std::io::stdin().lock())
     } else {
         if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
             return Err(Error::at(path, "is a directory, not a file"));
         }
-        std::fs::File::open(path).and_then(|f| f.take(limit + 1).read_to_end(&mut b))
+        Box::new(std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?)
     };
-    r.map_err(|e| Error::io(path, "can't read", e))?;
-    if b.len() as u64 > limit {
-        return Err(Error::at(
-            path,
-            format!("longer than {}", crate::human_bytes(limit)),
-        ));
+    let mut text = Vec::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = match src.read(&mut buf) {
+            Ok(0) => return Ok(text),
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(path, "can't read", e)),
+        };
+        if buf[..n].contains(&0) {
+            return Err(Error::at(path, "not a text file (it holds NUL bytes)"));
+        }
+        if (text.len() + n) as u64 > limit {
+            return Err(Error::at(
+                path,
+                format!("longer than {}", crate::human_bytes(limit)),
+            ));
+        }
+        text.extend_from_slice(&buf[..n]);
     }
-    if b.contains(&0) {
-        return Err(Error::at(path, "not a text file (it holds NUL bytes)"));
-    }
-    String::from_utf8(b).map_err(|_| Error::at(path, "not UTF-8 text"))
+}
+
+/// [`read_text_bytes`] for UTF-8 text.
+///
+/// # Errors
+/// As [`read_text_bytes`], and text that is not UTF-8.
+pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+    String::from_utf8(read_text_bytes(path, limit)?).map_err(|_| Error::at(path, "not UTF-8 text"))
 }
