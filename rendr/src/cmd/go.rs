@@ -396,8 +396,13 @@ pub fn run_cached(
     }
     if a.flag("petc") {
         eprint!("rendr go: press Enter to continue ");
-        let mut s = String::new();
-        let _ = std::io::stdin().read_line(&mut s);
+        // One line, read byte by byte up to a bound (stdin may be endless).
+        use std::io::Read;
+        for b in std::io::stdin().lock().bytes().take(1 << 16) {
+            if !matches!(b, Ok(c) if c != b'\n') {
+                break;
+            }
+        }
     }
     let [w, h] = spec.size();
     let t0 = std::time::Instant::now();
