@@ -73,6 +73,7 @@ fn cgroup_limit() -> Option<u64> {
 }
 
 #[cfg(unix)]
+#[allow(clippy::unnecessary_cast)] // rlim_t is u64 on Linux, not on every Unix
 fn rlimit_limit() -> Option<u64> {
     let get = |r| {
         let mut l = libc::rlimit {

@@ -22,7 +22,7 @@ pub const HEADER_MAX: usize = 1 << 20;
 /// part of the samples; the same result for any count).
 ///
 /// Every input is read with a limit derived from what its header says it needs (see
-/// [`data_limit`]), never to its end: a pipe, a device such as `/dev/zero` or a data
+/// [`data_limit_bytes`]), never to its end: a pipe, a device such as `/dev/zero` or a data
 /// file far larger than its volume costs no more than the volume.
 pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
     if path.as_os_str() == "-" {
@@ -45,7 +45,7 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
 }
 
 /// Reads a NRRD or text array from any byte stream, bounded: the header up to
-/// [`HEADER_MAX`], the data up to [`data_limit`], a text array up to [`TEXT_MAX`].
+/// [`HEADER_MAX`], the data up to [`data_limit_bytes`], a text array up to [`TEXT_MAX`].
 fn read_from(r: impl Read, dir: &Path) -> Result<Nrrd> {
     use std::io::BufRead;
     let mut r = std::io::BufReader::with_capacity(1 << 16, r);
