@@ -72,6 +72,11 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if a.given("oi") && (hgt == 0 || hgt > 1 << 16) {
         bail!("-h: picture height {hgt} must be in 1..=65536");
     }
+    if a.given("oi") {
+        // The picture is len x hgt RGB bytes (plus as much again while encoded).
+        let bytes = (len as u64).saturating_mul(hgt as u64).saturating_mul(6);
+        rnd_std::check_memory(bytes, &format!("a {len} x {hgt} LUT picture")).context("-oi")?;
+    }
     // Outputs prepared first: neither may be an input, nor the other output.
     let inputs = [files[0].as_str(), files[1].as_str()];
     let o = a.get_str("o").unwrap_or_default();
