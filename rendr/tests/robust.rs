@@ -106,6 +106,25 @@ fn listing(dir: &Path) -> Vec<String> {
     v
 }
 
+/// Status 1 and one stderr line containing `frag`, no panic.
+fn assert_refusal(r: &Ran, ctx: &str, frag: &str) {
+    assert_eq!(
+        r.code,
+        Some(1),
+        "{ctx}: status {:?}, stderr {}",
+        r.code,
+        r.stderr
+    );
+    assert!(
+        r.stderr.contains(frag),
+        "{ctx}: stderr {:?} lacks {frag:?}",
+        r.stderr
+    );
+    let lines = r.stderr.trim_end().lines().count();
+    assert_eq!(lines, 1, "{ctx}: not one line: {:?}", r.stderr);
+    assert!(!r.stderr.contains("panicked"), "{ctx}: {}", r.stderr);
+}
+
 /// A refusal: status 1, one stderr line containing `frag`, no panic, no temporary file,
 /// and the directory's contents unchanged (nothing created, nothing removed).
 fn refused(
@@ -119,25 +138,7 @@ fn refused(
     let before = listing(dir);
     let r = run(dir, args, stdin, vmem);
     let ctx = format!("rule \"{rule}\": rendr {args:?}");
-    assert_eq!(
-        r.code,
-        Some(1),
-        "{ctx}: status {:?}, stderr {}",
-        r.code,
-        r.stderr
-    );
-    assert!(
-        r.stderr.contains(frag),
-        "{ctx}: stderr {:?} lacks {frag:?}",
-        r.stderr
-    );
-    assert_eq!(
-        r.stderr.trim_end().lines().count(),
-        1,
-        "{ctx}: not one line: {:?}",
-        r.stderr
-    );
-    assert!(!r.stderr.contains("panicked"), "{ctx}: {}", r.stderr);
+    assert_refusal(&r, &ctx, frag);
     assert_eq!(listing(dir), before, "{ctx}: files created or removed");
 }
 
@@ -206,6 +207,11 @@ fn scene(name: &str) -> PathBuf {
 }
 
 const GO: [&str; 6] = ["go", "@cam.txt", "-i", "cube.nrrd", "-k", "tent"];
+
+/// The words of `s` (a command line without quoting).
+fn w(s: &str) -> Vec<&str> {
+    s.split_whitespace().collect()
+}
 
 fn go_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     let mut v = GO.to_vec();
@@ -361,43 +367,19 @@ fn output_that_is_an_input_is_refused() {
         ("the @file", go_args(&["-o", "cam.txt"])),
         (
             "a detached data file",
-            vec!["go", "@cam.txt", "-i", "vol.nhdr", "-o", "data.raw"],
+            w("go @cam.txt -i vol.nhdr -o data.raw"),
         ),
         (
             "lgen's input",
-            vec![
-                "lgen",
-                "-i",
-                "x",
-                "alpha.txt",
-                "-mm",
-                "0",
-                "1",
-                "-o",
-                "alpha.txt",
-            ],
+            w("lgen -i x alpha.txt -mm 0 1 -o alpha.txt"),
         ),
         (
             "lgen's two outputs",
-            vec![
-                "lgen",
-                "-i",
-                "x",
-                "alpha.txt",
-                "-mm",
-                "0",
-                "1",
-                "-o",
-                "l.nrrd",
-                "-oi",
-                "l.nrrd",
-            ],
+            w("lgen -i x alpha.txt -mm 0 1 -o l.nrrd -oi l.nrrd"),
         ),
         (
             "levoy's input",
-            vec![
-                "levoy", "-i", "lev.txt", "-mm", "0", "1", "-gm", "1", "-o", "lev.txt",
-            ],
+            w("levoy -i lev.txt -mm 0 1 -gm 1 -o lev.txt"),
         ),
     ];
     for (rule, args) in cases {
@@ -460,11 +442,10 @@ fn closed_stdout_is_an_error() {
         .stderr(Stdio::piped())
         .stdout(Stdio::null());
     let r = wait_limited(c.spawn().unwrap(), "go -o - with stdout closed");
-    assert_eq!(r.code, Some(1), "{}", r.stderr);
-    assert!(
-        r.stderr.contains("standard output is closed"),
-        "{}",
-        r.stderr
+    assert_refusal(
+        &r,
+        "go -o - with stdout closed",
+        "standard output is closed",
     );
     assert!(!r.stderr.contains("(stdin)"), "{}", r.stderr);
 }
@@ -571,19 +552,7 @@ fn full_stdout_is_an_error() {
             )
             .stderr(Stdio::piped());
         let r = wait_limited(c.spawn().unwrap(), "to /dev/full");
-        assert_eq!(r.code, Some(1), "{a:?}: {}", r.stderr);
-        assert!(
-            r.stderr.contains("No space left on device"),
-            "{a:?}: {}",
-            r.stderr
-        );
-        assert_eq!(
-            r.stderr.trim_end().lines().count(),
-            1,
-            "{a:?}: {}",
-            r.stderr
-        );
-        assert!(!r.stderr.contains("panicked"), "{a:?}: {}", r.stderr);
+        assert_refusal(&r, &format!("{a:?} > /dev/full"), "No space left on device");
     }
 }
 

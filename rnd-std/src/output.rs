@@ -408,6 +408,13 @@ mod tests {
         d
     }
 
+    fn put(p: &Path, bytes: &[u8]) {
+        write_atomic(p, |w| {
+            w.write_all(bytes).map_err(|e| Error::msg(e.to_string()))
+        })
+        .unwrap();
+    }
+
     fn leftovers(d: &Path) -> Vec<String> {
         std::fs::read_dir(d)
             .unwrap()
@@ -449,10 +456,7 @@ mod tests {
         // The output itself a link to another file: the link is replaced.
         let out = d.join("out.txt");
         std::os::unix::fs::symlink(&victim, &out).unwrap();
-        write_atomic(&out, |w| {
-            w.write_all(b"new").map_err(|e| Error::msg(e.to_string()))
-        })
-        .unwrap();
+        put(&out, b"new");
         assert_eq!(std::fs::read(&victim).unwrap(), b"victim");
         assert_eq!(std::fs::read(&out).unwrap(), b"new");
         assert!(!std::fs::symlink_metadata(&out)
@@ -470,10 +474,7 @@ mod tests {
         let p = d.join("o");
         std::fs::write(&p, b"old").unwrap();
         std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).unwrap();
-        write_atomic(&p, |w| {
-            w.write_all(b"new").map_err(|e| Error::msg(e.to_string()))
-        })
-        .unwrap();
+        put(&p, b"new");
         let m = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
         assert_eq!(m, 0o600);
         let _ = std::fs::remove_dir_all(d);
@@ -512,10 +513,7 @@ mod tests {
         let d = tmpdir("long");
         let name = "n".repeat(250);
         let p = d.join(&name);
-        write_atomic(&p, |w| {
-            w.write_all(b"x").map_err(|e| Error::msg(e.to_string()))
-        })
-        .unwrap();
+        put(&p, b"x");
         assert_eq!(std::fs::read(&p).unwrap(), b"x");
         let _ = std::fs::remove_dir_all(d);
     }
