@@ -989,3 +989,60 @@ fn os_errors_are_printed_once() {
         r.stderr
     );
 }
+
+/// Rule: skips are passed over without being kept: a byte skip of -1 reads the last
+/// bytes of a regular file (attached or detached), skips in a regular data file far
+/// larger than the volume cost nothing, and a stream refuses a byte skip beyond what
+/// it passes over instead of reading on forever.
+#[test]
+fn skips_are_bounded_and_exact() {
+    let d = scene("skips");
+    let vals: Vec<u8> = (0..8u32)
+        .flat_map(|i| (i as f32 + 0.5).to_le_bytes())
+        .collect();
+    let head = "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nendian: little\nencoding: raw\n";
+    // Attached, byte skip -1, junk before the data.
+    let mut f = format!("{head}byte skip: -1\n\n").into_bytes();
+    f.extend_from_slice(b"junk junk junk");
+    f.extend_from_slice(&vals);
+    std::fs::write(d.join("end.nrrd"), &f).unwrap();
+    // Detached: a sparse 3 GiB file whose last 32 bytes are the data, and one whose
+    // data follow a 3 GiB byte skip.
+    let big = sparse(&d, "big.raw", 3 << 30);
+    {
+        use std::io::{Seek, SeekFrom, Write};
+        let mut w = std::fs::OpenOptions::new().write(true).open(&big).unwrap();
+        w.seek(SeekFrom::End(-32)).unwrap();
+        w.write_all(&vals).unwrap();
+    }
+    std::fs::write(
+        d.join("end.nhdr"),
+        format!("{head}byte skip: -1\ndata file: big.raw\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("skip.nhdr"),
+        format!(
+            "{head}byte skip: {}\ndata file: big.raw\n",
+            (3u64 << 30) - 32
+        ),
+    )
+    .unwrap();
+    for f in ["end.nrrd", "end.nhdr", "skip.nhdr"] {
+        let r = succeeds(&d, "skips", &os(&["info", f]), None, Some(300));
+        let out = String::from_utf8_lossy(&r.stdout).into_owned();
+        assert!(out.contains("0.5") && out.contains("7.5"), "{f}: {out}");
+    }
+    // A stream: the skip is refused, not read through.
+    let mut s = format!("{head}byte skip: 9223372036854775807\n\n").into_bytes();
+    s.extend_from_slice(&vals);
+    std::fs::write(d.join("stream.nrrd"), &s).unwrap();
+    refused(
+        &d,
+        "byte skip beyond a stream's bound",
+        &os(&["info", "-"]),
+        Some(&d.join("stream.nrrd")),
+        Some(300),
+        "passes over in a stream",
+    );
+}

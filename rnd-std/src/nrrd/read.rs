@@ -26,7 +26,8 @@ pub const HEADER_MAX: usize = 1 << 20;
 /// file far larger than its volume costs no more than the volume.
 pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
     if path.as_os_str() == "-" {
-        return read_from(std::io::stdin().lock(), Path::new(".")).map_err(|e| e.with_path(path));
+        return read_from(std::io::stdin().lock(), Path::new("."), false)
+            .map_err(|e| e.with_path(path));
     }
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, "can't read", e))?;
     if meta.is_dir() {
@@ -41,13 +42,12 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
         }
     }
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
-    read_from(f, &dir).map_err(|e| e.with_path(path))
+    read_from(f, &dir, meta.is_file()).map_err(|e| e.with_path(path))
 }
 
 /// Reads a NRRD or text array from any byte stream, bounded: the header up to
 /// [`HEADER_MAX`], the data up to [`data_limit_bytes`], a text array up to [`TEXT_MAX`].
-fn read_from(r: impl Read, dir: &Path) -> Result<Nrrd> {
-    use std::io::BufRead;
+fn read_from(r: impl Read, dir: &Path, regular: bool) -> Result<Nrrd> {
     let mut r = std::io::BufReader::with_capacity(1 << 16, r);
     let head = r
         .fill_buf()
@@ -74,12 +74,13 @@ fn read_from(r: impl Read, dir: &Path) -> Result<Nrrd> {
             let (n, nbytes) = data_size(&parsed)?;
             if parsed.skips.byte < 0 {
                 return Err(Error::msg(
-                    "byte skip -1 (data at the end) needs a detached data file or a regular \
-                     file; this input has no end to count back from",
+                    "byte skip -1 (data at the end) needs raw data in a regular file; \
+                     this input has no end to count back from",
                 ));
             }
-            let b = read_up_to(&mut r, data_limit(&parsed, n, nbytes))?;
-            decode(&parsed, &b, &parsed.skips)?
+            skip_stream(&mut r, &parsed.skips, regular)?;
+            let b = read_up_to(&mut r, data_limit_bytes(parsed.encoding, n, nbytes))?;
+            decode(&parsed, &b, &Skips::default())?
         }
         Some(files) => read_detached(&parsed, &files, dir)?,
     };
@@ -125,35 +126,29 @@ fn read_up_to(r: impl Read, limit: u64) -> Result<Vec<u8>> {
     Ok(b)
 }
 
-/// How many bytes of input may hold the data of `n` samples (`nbytes` bytes) in the
-/// header's encoding, after its skips; reading stops there. The margins:
-/// - skips: the byte skip, plus 64 MiB when lines are skipped;
+/// How many bytes of input may hold the data of `n` samples (`nbytes` bytes) in
+/// `encoding`, after the header's skips; reading stops there. The margins:
 /// - raw: exactly the data;
 /// - gzip and bzip2: the data plus 1/64 of it plus 1 MiB (both formats grow
 ///   incompressible data by less than that);
 /// - hex: 3 characters per byte plus 1 MiB (two digits and room for line breaks);
 /// - ascii: 64 characters per value plus 1 MiB.
-pub fn data_limit_bytes(
-    encoding: Encoding,
-    n: usize,
-    nbytes: usize,
-    byte_skip: i64,
-    line_skip: usize,
-) -> u64 {
-    let skips = (byte_skip.max(0) as u64).saturating_add(if line_skip > 0 { 64 << 20 } else { 0 });
+///
+/// Skips are passed over without being kept: skipped lines up to [`SKIP_MAX`] bytes in
+/// all, byte skips up to the end of a regular file or [`SKIP_MAX`] in a stream.
+pub fn data_limit_bytes(encoding: Encoding, n: usize, nbytes: usize) -> u64 {
     let (n, nb) = (n as u64, nbytes as u64);
-    let body = match encoding {
+    match encoding {
         Encoding::Raw => nb,
         Encoding::Gzip | Encoding::Bzip2 => nb.saturating_add(nb / 64).saturating_add(1 << 20),
         Encoding::Hex => nb.saturating_mul(3).saturating_add(1 << 20),
         Encoding::Ascii => n.saturating_mul(64).saturating_add(1 << 20),
-    };
-    skips.saturating_add(body)
+    }
 }
 
-fn data_limit(h: &Parsed, n: usize, nbytes: usize) -> u64 {
-    data_limit_bytes(h.encoding, n, nbytes, h.skips.byte, h.skips.line)
-}
+/// Most bytes passed over by reading: skipped lines in all, and a byte skip in a stream
+/// that is not a regular file.
+pub const SKIP_MAX: u64 = 64 << 20;
 
 /// Reads a header: lines up to the first empty one, at most [`HEADER_MAX`] bytes (a
 /// line without end counts too), no NUL bytes. Text that is not UTF-8 is read as
@@ -216,15 +211,31 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     let text = read_header_text(&mut r)?;
     let (parsed, data_file) = parse_header(&text)?;
     let enc = parsed.encoding;
-    if data_file.is_some()
-        || !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2)
-        || parsed.skips.byte < 0
-    {
+    if data_file.is_some() || !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2) {
         return Ok(None);
     }
     let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
-    skip_stream(&mut r, &parsed.skips)?;
+    if parsed.skips.byte == -1 {
+        // The data are the file's last bytes.
+        if enc != Encoding::Raw {
+            return Err(Error::msg("byte skip -1 needs raw encoding"));
+        }
+        use std::io::{Seek, SeekFrom};
+        let at = r
+            .stream_position()
+            .map_err(|e| Error::io(path, "can't read", e))?;
+        if file_len.saturating_sub(at) < nbytes as u64 {
+            return Err(Error::msg(format!(
+                "data is truncated: need {nbytes} bytes, file has {}",
+                file_len.saturating_sub(at)
+            )));
+        }
+        r.seek(SeekFrom::Start(file_len - nbytes as u64))
+            .map_err(|e| Error::io(path, "can't read", e))?;
+    } else {
+        skip_file(&mut r, &parsed.skips, file_len)?;
+    }
     let start = {
         use std::io::Seek;
         r.stream_position()
@@ -287,25 +298,58 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     Ok(Some(Nrrd { header, data }))
 }
 
-/// Skips the header's line and byte skips in a stream: the lines within 64 MiB (the
-/// margin [`data_limit_bytes`] allows), without holding them.
-fn skip_stream(r: &mut impl std::io::BufRead, sk: &Skips) -> Result<()> {
-    let mut lines = r.by_ref().take(64 << 20);
+/// Passes over the header's line and byte skips without keeping them: lines within
+/// [`SKIP_MAX`] bytes in all; a byte skip to the end of a regular file (`regular`) or
+/// within [`SKIP_MAX`] in a stream (a pipe has no end to trust).
+fn skip_stream(r: &mut impl BufRead, sk: &Skips, regular: bool) -> Result<()> {
+    let mut lines = r.by_ref().take(SKIP_MAX);
     for _ in 0..sk.line {
         let n = lines
             .skip_until(b'\n')
             .map_err(|e| Error::msg(format!("can't read: {e}")))?;
         if n == 0 || lines.limit() == 0 {
-            return Err(Error::msg(
-                "line skip goes past the end of the data (or past 64 MiB of skipped lines)",
-            ));
+            return Err(Error::msg(format!(
+                "line skip goes past the end of the data (or past {} of skipped lines)",
+                crate::human_bytes(SKIP_MAX)
+            )));
         }
     }
     let skip = sk.byte.max(0) as u64;
+    if !regular && skip > SKIP_MAX {
+        return Err(Error::msg(format!(
+            "byte skip {skip} is beyond the {} rendr passes over in a stream (pipe or \
+             device)",
+            crate::human_bytes(SKIP_MAX)
+        )));
+    }
     if std::io::copy(&mut r.by_ref().take(skip), &mut std::io::sink())
         .map_err(|e| Error::msg(format!("can't read: {e}")))?
         < skip
     {
+        return Err(Error::msg("byte skip goes past the end of the data"));
+    }
+    Ok(())
+}
+
+/// [`skip_stream`] in a regular file: the byte skip by seeking (so a skip over most of
+/// a large file costs nothing), refused when it passes the file's end.
+fn skip_file(r: &mut std::io::BufReader<std::fs::File>, sk: &Skips, len: u64) -> Result<()> {
+    use std::io::Seek;
+    skip_stream(
+        r,
+        &Skips {
+            line: sk.line,
+            byte: 0,
+        },
+        true,
+    )?;
+    let skip = sk.byte.max(0);
+    r.seek_relative(skip)
+        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    let at = r
+        .stream_position()
+        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    if at > len {
         return Err(Error::msg("byte skip goes past the end of the data"));
     }
     Ok(())
@@ -553,7 +597,8 @@ fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
         )));
     }
     let (share_n, share_bytes) = (n / k, nbytes / k);
-    let limit = data_limit(h, share_n, share_bytes);
+    let limit = data_limit_bytes(h.encoding, share_n, share_bytes);
+    // One file's payload: its skips passed over, then at most what its share needs.
     let read_one = |f: &String| -> Result<Vec<u8>> {
         let p = if Path::new(f).is_absolute() {
             PathBuf::from(f)
@@ -565,11 +610,15 @@ fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
         if meta.is_dir() {
             return Err(Error::at(&p, "detached data is a directory, not a file"));
         }
-        let mut file =
+        let file =
             std::fs::File::open(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
-        if h.skips.byte == -1 && h.encoding == Encoding::Raw {
-            // The data are the file's last bytes: seek there (regular files only).
+        let mut r = std::io::BufReader::with_capacity(1 << 16, file);
+        if h.skips.byte == -1 {
+            // The data are the file's last bytes: seek there (raw, regular files only).
             use std::io::{Seek, SeekFrom};
+            if h.encoding != Encoding::Raw {
+                return Err(Error::at(&p, "byte skip -1 needs raw encoding"));
+            }
             if !meta.is_file() {
                 return Err(Error::at(
                     &p,
@@ -585,40 +634,32 @@ fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
                     ),
                 ));
             }
-            file.seek(SeekFrom::Start(meta.len() - share_bytes as u64))
+            r.seek(SeekFrom::Start(meta.len() - share_bytes as u64))
                 .map_err(|e| Error::io(&p, "can't read detached data", e))?;
-            return read_up_to(file, share_bytes as u64).map_err(|e| e.with_path(&p));
+        } else {
+            if meta.is_file() {
+                skip_file(&mut r, &h.skips, meta.len())
+            } else {
+                skip_stream(&mut r, &h.skips, false)
+            }
+            .map_err(|e| e.with_path(&p))?;
         }
-        read_up_to(file, limit).map_err(|e| e.with_path(&p))
-    };
-    let end_skip = Skips {
-        line: h.skips.line,
-        byte: if h.skips.byte == -1 { 0 } else { h.skips.byte },
+        read_up_to(r, limit).map_err(|e| e.with_path(&p))
     };
     if k == 1 {
-        let b = read_one(&files[0])?;
-        let sk = if h.skips.byte == -1 && h.encoding == Encoding::Raw {
-            Skips::default()
-        } else {
-            h.skips
-        };
-        return decode(h, &b, &sk);
+        return decode(h, &read_one(&files[0])?, &Skips::default());
     }
-    // Each file holds an equal share; their payloads after the skips are decoded as
-    // one (concatenated compressed streams are one stream to the decoders).
+    // Each file holds an equal share; their payloads are decoded as one (concatenated
+    // compressed streams are one stream to the decoders).
     let mut joined = Vec::new();
     for f in files {
         let b = read_one(f)?;
-        let b = if h.skips.byte == -1 && h.encoding == Encoding::Raw {
-            &b[..]
+        let take = if h.encoding == Encoding::Raw {
+            b.len().min(share_bytes)
         } else {
-            skip_bytes(&b, &end_skip, None)?
+            b.len()
         };
-        if h.encoding == Encoding::Raw {
-            joined.extend_from_slice(&b[..b.len().min(share_bytes)]);
-        } else {
-            joined.extend_from_slice(b);
-        }
+        joined.extend_from_slice(&b[..take]);
     }
     decode(h, &joined, &Skips::default())
 }
