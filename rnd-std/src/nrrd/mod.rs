@@ -13,7 +13,7 @@ mod write;
 pub use header::{Centering, Encoding, Endian, Header, ScalarType};
 pub use read::{
     centering, data_limit_bytes, input_files, read, read_bytes, read_with_threads, HEADER_MAX,
-    TEXT_MAX,
+    SKIP_MAX, TEXT_MAX,
 };
 pub use text::{parse_text, write_text};
 pub use write::{write, write_to, WriteOptions, CONTENT_MAX};
