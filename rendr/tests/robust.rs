@@ -594,6 +594,11 @@ fn new_bad_input_corpus() {
             "a data file counter near the 64-bit end ends (no wrap)",
             "can't read detached data",
         ),
+        (
+            "list-no-files.nrrd",
+            "a LIST of data files naming none is refused (not read as attached data)",
+            "LIST names no files",
+        ),
     ];
     for (f, rule, frag) in cases {
         let p = corpus("bad", f);

@@ -122,8 +122,9 @@ impl Camera {
         let fcv = d + spec.fc;
         if !spec.ortho && ncv <= 0.0 {
             return Err(cam_err(format!(
-                "-nc: near plane {} puts it at or behind the eye (look-from is {d} from look-at)",
-                spec.nc
+                "-nc: near plane {} puts it at or behind the eye (look-from is {} from look-at)",
+                crate::error::Num(spec.nc),
+                crate::error::Num(d)
             )));
         }
         if !(fcv > ncv) {

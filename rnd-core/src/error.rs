@@ -52,6 +52,22 @@ impl fmt::Display for Error {
 
 impl core::error::Error for Error {}
 
+/// A number for a message: as written (`0.1`, `-2.5`) unless that takes more than 16
+/// characters (`1e-300` would be 300 digits), then in exponent form.
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if self.0 == 0.0 || !self.0.is_finite() || (1e-5..1e12).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// Result alias for the crate.
 pub type Result<T> = core::result::Result<T, Error>;
 

@@ -136,7 +136,7 @@ impl<'a> RenderSpec<'a> {
         if !params.plane_sep.is_finite() || params.plane_sep < 0.0 {
             return Err(rerr(format!(
                 "-s: plane separation {} must be >= 0",
-                params.plane_sep
+                crate::error::Num(params.plane_sep)
             )));
         }
         if !once {
@@ -144,7 +144,7 @@ impl<'a> RenderSpec<'a> {
             if !(per_ray <= MAX_SAMPLES_PER_RAY) {
                 return Err(rerr(format!(
                     "-s: plane separation {} gives {per_ray:.3e} samples per ray (limit {MAX_SAMPLES_PER_RAY:e})",
-                    params.plane_sep
+                    crate::error::Num(params.plane_sep)
                 )));
             }
         }

@@ -117,6 +117,14 @@ pub fn input_files(path: &Path) -> Vec<PathBuf> {
     out
 }
 
+/// A word from a file for a message: at most 40 characters (then an ellipsis).
+pub(crate) fn short(w: &str) -> std::borrow::Cow<'_, str> {
+    match w.char_indices().nth(40) {
+        None => std::borrow::Cow::Borrowed(w),
+        Some((cut, _)) => std::borrow::Cow::Owned(format!("{}...", &w[..cut])),
+    }
+}
+
 /// Reads at most `limit` bytes of `r` (fewer at its end).
 fn read_up_to(r: impl Read, limit: u64) -> Result<Vec<u8>> {
     let mut b = Vec::new();
@@ -739,8 +747,9 @@ fn parse_f64s(field: &str, v: &str, n: usize) -> Result<Vec<f64>> {
     let out: Vec<f64> = v
         .split_whitespace()
         .map(|w| {
-            parse_f64(w)
-                .ok_or_else(|| Error::msg(format!("{field}: can't parse \"{w}\" as a number")))
+            parse_f64(w).ok_or_else(|| {
+                Error::msg(format!("{field}: can't parse \"{}\" as a number", short(w)))
+            })
         })
         .collect::<Result<_>>()?;
     if out.len() != n {
@@ -772,8 +781,13 @@ fn parse_vector(s: &str) -> Result<Vec<f64>> {
     inner
         .split(',')
         .map(|w| {
-            parse_f64(w.trim())
-                .ok_or_else(|| Error::msg(format!("can't parse \"{w}\" in vector \"{s}\"")))
+            parse_f64(w.trim()).ok_or_else(|| {
+                Error::msg(format!(
+                    "can't parse \"{}\" in vector \"{}\"",
+                    short(w),
+                    short(s)
+                ))
+            })
         })
         .collect()
 }
@@ -947,7 +961,7 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                     .split_whitespace()
                     .map(|w| {
                         w.parse::<usize>().map_err(|_| {
-                            Error::msg(format!("sizes: can't parse \"{w}\" as a size"))
+                            Error::msg(format!("sizes: can't parse \"{}\" as a size", short(w)))
                         })
                     })
                     .collect::<Result<_>>()?;
@@ -1002,6 +1016,8 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
             "data file" | "datafile" => {
                 if value == "LIST" || value.starts_with("LIST ") {
                     list_mode = true;
+                    // The files follow, one a line; none at all is an error below.
+                    data_file = Some(Vec::new());
                 } else if value.contains('%') {
                     data_file = Some(expand_format(value)?);
                 } else {
@@ -1330,8 +1346,8 @@ fn ascii_data(t: ScalarType, text: &str, n: usize) -> Result<Data> {
         if vals.len() == n {
             break;
         }
-        let v =
-            parse_f64(w).ok_or_else(|| Error::msg(format!("ascii data: can't parse \"{w}\"")))?;
+        let v = parse_f64(w)
+            .ok_or_else(|| Error::msg(format!("ascii data: can't parse \"{}\"", short(w))))?;
         vals.push(v);
     }
     if vals.len() < n {

@@ -33,7 +33,11 @@ pub fn parse_text(text: &str) -> Result<Nrrd> {
         }
         for w in &words {
             let v = parse_f64(w).ok_or_else(|| {
-                Error::msg(format!("line {}: can't parse \"{w}\" as a number", ln + 1))
+                Error::msg(format!(
+                    "line {}: can't parse \"{}\" as a number",
+                    ln + 1,
+                    super::read::short(w)
+                ))
             })?;
             vals.push(v);
         }
