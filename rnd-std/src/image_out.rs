@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use crate::nrrd::{self, Data, Nrrd, WriteOptions};
-use crate::output::{write_atomic, Output};
+use crate::output::Output;
 use crate::{Error, Result};
 
 /// An image of `channels` floats per pixel, `size[0]` × `size[1]` pixels, top row first.
@@ -85,11 +85,7 @@ pub fn encode_png(buf: &[u8], w: usize, h: usize, color: image::ColorType) -> Re
 
 /// Writes 8-bit RGB pixels (`w` × `h`, top row first) as a PNG file, atomically.
 pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> {
-    let bytes = encode_png(buf, w, h, image::ColorType::Rgb8)?;
-    write_atomic(path, |f| {
-        f.write_all(&bytes)
-            .map_err(|e| Error::msg(format!("write failed: {e}")))
-    })
+    write_png_rgb_to(Output::create::<&Path>(path, &[])?, buf, w, h)
 }
 
 /// [`write_png_rgb`] into an output prepared beforehand.
@@ -97,9 +93,13 @@ pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> 
 /// # Errors
 /// PNG encoding and write failures.
 pub fn write_png_rgb_to(out: Output, buf: &[u8], w: usize, h: usize) -> Result<()> {
-    let bytes = encode_png(buf, w, h, image::ColorType::Rgb8)?;
+    commit_bytes(out, &encode_png(buf, w, h, image::ColorType::Rgb8)?)
+}
+
+/// Commits encoded bytes to `out`.
+fn commit_bytes(out: Output, bytes: &[u8]) -> Result<()> {
     out.commit(|f| {
-        f.write_all(&bytes)
+        f.write_all(bytes)
             .map_err(|e| Error::msg(format!("write failed: {e}")))
     })
 }
@@ -145,11 +145,7 @@ pub fn write_image_to(
     range: Option<(f64, f64)>,
 ) -> Result<()> {
     if is_png(out.path()) {
-        let bytes = png_bytes(&img, range)?;
-        return out.commit(|w| {
-            w.write_all(&bytes)
-                .map_err(|e| Error::msg(format!("write failed: {e}")))
-        });
+        return commit_bytes(out, &png_bytes(&img, range)?);
     }
     let mut n = Nrrd::new(
         vec![img.channels, img.size[0], img.size[1]],

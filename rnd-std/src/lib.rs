@@ -112,6 +112,21 @@ pub fn check_memory(bytes: u64, what: &str) -> Result<()> {
     Ok(())
 }
 
+/// Reserves room for exactly `additional` more elements of `v`; memory the system
+/// refuses is an error ("the system refused … of memory for `what`"), not an abort.
+///
+/// # Errors
+/// When the reservation fails.
+pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<()> {
+    v.try_reserve_exact(additional).map_err(|_| {
+        let bytes = (additional as u64).saturating_mul(std::mem::size_of::<T>() as u64);
+        Error::msg(format!(
+            "the system refused {} of memory for {what}",
+            human_bytes(bytes)
+        ))
+    })
+}
+
 /// Human-readable byte count ("1.5 GiB").
 pub fn human_bytes(b: u64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];

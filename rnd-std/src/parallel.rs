@@ -50,12 +50,7 @@ pub fn render(
     );
     crate::check_memory(len.saturating_mul(4), &what)?;
     let mut out: Vec<f32> = Vec::new();
-    out.try_reserve_exact(len as usize).map_err(|_| {
-        crate::Error::msg(format!(
-            "{what}: the system refused the {} it needs",
-            crate::human_bytes(len.saturating_mul(4))
-        ))
-    })?;
+    crate::try_reserve(&mut out, len as usize, &what)?;
     out.resize(len as usize, 0.0);
     struct Task<'s, 'a> {
         spec: &'s RenderSpec<'a>,

@@ -215,12 +215,7 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
             let need = (other.len() as u64).saturating_mul(4);
             crate::check_memory(need, "converting the samples to float")?;
             let mut v: Vec<f32> = Vec::new();
-            v.try_reserve_exact(other.len()).map_err(|_| {
-                Error::msg(format!(
-                    "the system refused {} of memory for the float samples",
-                    crate::human_bytes(need)
-                ))
-            })?;
+            crate::try_reserve(&mut v, other.len(), "the float samples")?;
             crate::nrrd::each_data!(&other, src => v.extend(src.iter().map(|&x| x as f32)));
             VolumeData::F32(v)
         }

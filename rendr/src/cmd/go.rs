@@ -331,7 +331,7 @@ pub fn run_cached(
         bail!("missing -o (output file), needed unless -db is given");
     }
     let input = PathBuf::from(a.get_str("i").unwrap_or_default());
-    let inputs: Vec<String> = std::iter::once(a.get_str("i").unwrap_or_default())
+    let inputs: Vec<String> = std::iter::once(input.to_string_lossy().into_owned())
         .chain(["lut", "lev", "lit"].iter().filter_map(|f| a.get_str(f)))
         .chain(extra_inputs.iter().cloned())
         .collect();

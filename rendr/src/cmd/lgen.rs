@@ -69,10 +69,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let len: usize = a.get("l")?;
     let [lo, hi] = a.get_arr::<f64, 2>("mm")?;
     let hgt: usize = a.get("h")?;
-    if a.given("oi") && (hgt == 0 || hgt > 1 << 16) {
-        bail!("-h: picture height {hgt} must be in 1..=65536");
-    }
     if a.given("oi") {
+        if hgt == 0 || hgt > 1 << 16 {
+            bail!("-h: picture height {hgt} must be in 1..=65536");
+        }
         // The picture is len x hgt RGB bytes (plus as much again while encoded).
         let bytes = (len as u64).saturating_mul(hgt as u64).saturating_mul(6);
         rnd_std::check_memory(bytes, &format!("a {len} x {hgt} LUT picture")).context("-oi")?;

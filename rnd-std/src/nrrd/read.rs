@@ -49,9 +49,7 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
 /// [`HEADER_MAX`], the data up to [`data_limit_bytes`], a text array up to [`TEXT_MAX`].
 fn read_from(r: impl Read, dir: &Path, regular: bool) -> Result<Nrrd> {
     let mut r = std::io::BufReader::with_capacity(1 << 16, r);
-    let head = r
-        .fill_buf()
-        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    let head = r.fill_buf().map_err(read_error)?;
     if !head.starts_with(b"NRRD") {
         if head.contains(&0) {
             return Err(Error::msg(
@@ -106,15 +104,19 @@ pub fn input_files(path: &Path) -> Vec<PathBuf> {
     }
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     if let Ok((_, Some(files))) = read_header_text(&mut r).and_then(|t| parse_header(&t)) {
-        out.extend(files.iter().map(|f| {
-            if Path::new(f).is_absolute() {
-                PathBuf::from(f)
-            } else {
-                dir.join(f)
-            }
-        }));
+        out.extend(files.iter().map(|f| data_path(&dir, f)));
     }
     out
+}
+
+/// A detached data file named in a header: absolute, or relative to the header's
+/// directory.
+fn data_path(dir: &Path, f: &str) -> PathBuf {
+    if Path::new(f).is_absolute() {
+        PathBuf::from(f)
+    } else {
+        dir.join(f)
+    }
 }
 
 /// A word from a file for a message: at most 40 characters (then an ellipsis).
@@ -125,12 +127,14 @@ pub(crate) fn short(w: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
+fn read_error(e: std::io::Error) -> Error {
+    Error::msg(format!("can't read: {e}"))
+}
+
 /// Reads at most `limit` bytes of `r` (fewer at its end).
 fn read_up_to(r: impl Read, limit: u64) -> Result<Vec<u8>> {
     let mut b = Vec::new();
-    r.take(limit)
-        .read_to_end(&mut b)
-        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    r.take(limit).read_to_end(&mut b).map_err(read_error)?;
     Ok(b)
 }
 
@@ -170,15 +174,12 @@ fn read_header_text(r: &mut impl std::io::BufRead) -> Result<String> {
             .by_ref()
             .take(room)
             .read_until(b'\n', &mut line)
-            .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+            .map_err(read_error)?;
         if n == 0 {
             break;
         }
         if text.len() + line.len() > HEADER_MAX {
-            return Err(Error::msg(format!(
-                "NRRD header is longer than {}",
-                crate::human_bytes(HEADER_MAX as u64)
-            )));
+            return Err(header_too_long());
         }
         let body = line.strip_suffix(b"\n").unwrap_or(&line);
         let body = body.strip_suffix(b"\r").unwrap_or(body);
@@ -188,6 +189,13 @@ fn read_header_text(r: &mut impl std::io::BufRead) -> Result<String> {
         text.extend_from_slice(&line);
     }
     header_string(&text)
+}
+
+fn header_too_long() -> Error {
+    Error::msg(format!(
+        "NRRD header is longer than {}",
+        crate::human_bytes(HEADER_MAX as u64)
+    ))
 }
 
 /// Header bytes as text: UTF-8 when valid, else Latin-1; NUL bytes refused.
@@ -205,10 +213,9 @@ fn header_string(b: &[u8]) -> Result<String> {
 
 /// Reads an attached-header NRRD with raw, gzip or bzip2 data straight from the file into
 /// typed samples, so a volume needs its own size in memory and not twice that. Returns
-/// None for everything else (text arrays, detached headers, ascii/hex data, byte skip
-/// -1), which the in-memory reader handles.
+/// None for everything else (text arrays, detached headers, ascii/hex data), which
+/// [`read_from`] reads.
 fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
-    use std::io::BufRead;
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
     let file_len = f.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let mut r = std::io::BufReader::with_capacity(1 << 16, f);
@@ -225,22 +232,7 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
     if parsed.skips.byte == -1 {
-        // The data are the file's last bytes.
-        if enc != Encoding::Raw {
-            return Err(Error::msg("byte skip -1 needs raw encoding"));
-        }
-        use std::io::{Seek, SeekFrom};
-        let at = r
-            .stream_position()
-            .map_err(|e| Error::io(path, "can't read", e))?;
-        if file_len.saturating_sub(at) < nbytes as u64 {
-            return Err(Error::msg(format!(
-                "data is truncated: need {nbytes} bytes, file has {}",
-                file_len.saturating_sub(at)
-            )));
-        }
-        r.seek(SeekFrom::Start(file_len - nbytes as u64))
-            .map_err(|e| Error::io(path, "can't read", e))?;
+        seek_tail(&mut r, enc, file_len, nbytes)?;
     } else {
         skip_file(&mut r, &parsed.skips, file_len)?;
     }
@@ -312,9 +304,7 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
 fn skip_stream(r: &mut impl BufRead, sk: &Skips, regular: bool) -> Result<()> {
     let mut lines = r.by_ref().take(SKIP_MAX);
     for _ in 0..sk.line {
-        let n = lines
-            .skip_until(b'\n')
-            .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+        let n = lines.skip_until(b'\n').map_err(read_error)?;
         if n == 0 || lines.limit() == 0 {
             return Err(Error::msg(format!(
                 "line skip goes past the end of the data (or past {} of skipped lines)",
@@ -330,10 +320,7 @@ fn skip_stream(r: &mut impl BufRead, sk: &Skips, regular: bool) -> Result<()> {
             crate::human_bytes(SKIP_MAX)
         )));
     }
-    if std::io::copy(&mut r.by_ref().take(skip), &mut std::io::sink())
-        .map_err(|e| Error::msg(format!("can't read: {e}")))?
-        < skip
-    {
+    if std::io::copy(&mut r.by_ref().take(skip), &mut std::io::sink()).map_err(read_error)? < skip {
         return Err(Error::msg("byte skip goes past the end of the data"));
     }
     Ok(())
@@ -352,14 +339,35 @@ fn skip_file(r: &mut std::io::BufReader<std::fs::File>, sk: &Skips, len: u64) ->
         true,
     )?;
     let skip = sk.byte.max(0);
-    r.seek_relative(skip)
-        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
-    let at = r
-        .stream_position()
-        .map_err(|e| Error::msg(format!("can't read: {e}")))?;
+    r.seek_relative(skip).map_err(read_error)?;
+    let at = r.stream_position().map_err(read_error)?;
     if at > len {
         return Err(Error::msg("byte skip goes past the end of the data"));
     }
+    Ok(())
+}
+
+/// Byte skip -1: the data are the last `need` bytes of a regular file of `len` bytes
+/// (raw encoding only), after what has been read of it so far.
+fn seek_tail(
+    r: &mut std::io::BufReader<std::fs::File>,
+    enc: Encoding,
+    len: u64,
+    need: usize,
+) -> Result<()> {
+    use std::io::{Seek, SeekFrom};
+    if enc != Encoding::Raw {
+        return Err(Error::msg("byte skip -1 needs raw encoding"));
+    }
+    let at = r.stream_position().map_err(read_error)?;
+    if len.saturating_sub(at) < need as u64 {
+        return Err(Error::msg(format!(
+            "data is truncated: need {need} bytes, file has {}",
+            len.saturating_sub(at)
+        )));
+    }
+    r.seek(SeekFrom::Start(len - need as u64))
+        .map_err(read_error)?;
     Ok(())
 }
 
@@ -424,15 +432,8 @@ fn read_raw_parallel(
         threads: usize,
     ) -> std::io::Result<()> {
         use std::os::unix::fs::FileExt;
-        v.try_reserve_exact(n).map_err(|_| {
-            std::io::Error::new(
-                std::io::ErrorKind::OutOfMemory,
-                format!(
-                    "the system refused {} of memory for the data",
-                    crate::human_bytes(n.saturating_mul(T::SIZE) as u64)
-                ),
-            )
-        })?;
+        crate::try_reserve(v, n, "the data")
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::OutOfMemory, e.msg))?;
         advise_huge_pages(v.as_ptr() as usize, n * T::SIZE, false);
         let per = n.div_ceil(threads.max(1)).max(1);
         let parts = &mut v.spare_capacity_mut()[..n];
@@ -476,8 +477,7 @@ fn read_raw_parallel(
 /// back them with huge pages (fewer TLB misses when rays wander through a big volume).
 fn reserve_all(d: &mut Data, n: usize) -> Result<()> {
     fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<()> {
-        v.try_reserve_exact(n)
-            .map_err(|_| out_of_memory(n.saturating_mul(std::mem::size_of::<T>())))?;
+        crate::try_reserve(v, n, "the data")?;
         advise_huge_pages(
             v.as_ptr() as usize,
             v.capacity() * std::mem::size_of::<T>(),
@@ -548,20 +548,12 @@ fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) -> Result<()> {
         let add = b.len() / T::SIZE;
         if v.capacity() - v.len() < add {
             let grow = (v.len() + add).max(2 * v.len()).min(total);
-            v.try_reserve_exact(grow.saturating_sub(v.len()).max(add))
-                .map_err(|_| out_of_memory(grow.saturating_mul(T::SIZE)))?;
+            crate::try_reserve(v, grow.saturating_sub(v.len()).max(add), "the data")?;
         }
         v.extend(b.chunks_exact(T::SIZE).map(|c| T::get(c, e)));
         Ok(())
     }
     super::each_data!(d, v => go(v, b, e, total))
-}
-
-fn out_of_memory(bytes: usize) -> Error {
-    Error::msg(format!(
-        "the system refused {} of memory for the data",
-        crate::human_bytes(bytes as u64)
-    ))
 }
 
 /// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data
@@ -608,11 +600,7 @@ fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
     let limit = data_limit_bytes(h.encoding, share_n, share_bytes);
     // One file's payload: its skips passed over, then at most what its share needs.
     let read_one = |f: &String| -> Result<Vec<u8>> {
-        let p = if Path::new(f).is_absolute() {
-            PathBuf::from(f)
-        } else {
-            dir.join(f)
-        };
+        let p = data_path(dir, f);
         let meta =
             std::fs::metadata(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
         if meta.is_dir() {
@@ -622,36 +610,19 @@ fn read_detached(h: &Parsed, files: &[String], dir: &Path) -> Result<Data> {
             std::fs::File::open(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
         let mut r = std::io::BufReader::with_capacity(1 << 16, file);
         if h.skips.byte == -1 {
-            // The data are the file's last bytes: seek there (raw, regular files only).
-            use std::io::{Seek, SeekFrom};
-            if h.encoding != Encoding::Raw {
-                return Err(Error::at(&p, "byte skip -1 needs raw encoding"));
-            }
             if !meta.is_file() {
                 return Err(Error::at(
                     &p,
                     "byte skip -1 (data at the end) needs a regular file",
                 ));
             }
-            if meta.len() < share_bytes as u64 {
-                return Err(Error::at(
-                    &p,
-                    format!(
-                        "data is truncated: need {share_bytes} bytes, file has {}",
-                        meta.len()
-                    ),
-                ));
-            }
-            r.seek(SeekFrom::Start(meta.len() - share_bytes as u64))
-                .map_err(|e| Error::io(&p, "can't read detached data", e))?;
+            seek_tail(&mut r, h.encoding, meta.len(), share_bytes)
+        } else if meta.is_file() {
+            skip_file(&mut r, &h.skips, meta.len())
         } else {
-            if meta.is_file() {
-                skip_file(&mut r, &h.skips, meta.len())
-            } else {
-                skip_stream(&mut r, &h.skips, false)
-            }
-            .map_err(|e| e.with_path(&p))?;
+            skip_stream(&mut r, &h.skips, false)
         }
+        .map_err(|e| e.with_path(&p))?;
         read_up_to(r, limit).map_err(|e| e.with_path(&p))
     };
     if k == 1 {
@@ -717,10 +688,7 @@ fn split_header(bytes: &[u8]) -> Result<(String, usize)> {
         }
     }
     if end > HEADER_MAX {
-        return Err(Error::msg(format!(
-            "NRRD header is longer than {}",
-            crate::human_bytes(HEADER_MAX as u64)
-        )));
+        return Err(header_too_long());
     }
     let text = header_string(&bytes[..end.min(bytes.len())])?;
     Ok((text, data_off.min(bytes.len())))
@@ -941,7 +909,7 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
             }
             seen.push(known);
         }
-        match field.as_str() {
+        match canon {
             "type" => {
                 scalar = Some(ScalarType::parse(value).ok_or_else(|| {
                     Error::msg(format!("type: unknown or unsupported type \"{value}\""))
@@ -997,7 +965,7 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                 h.space_dimension = Some(d);
             }
             "space origin" => h.space_origin = Some(parse_vector(value)?),
-            "byte skip" | "byteskip" => {
+            "byte skip" => {
                 skips.byte = value
                     .parse()
                     .map_err(|_| Error::msg(format!("byte skip: can't parse \"{value}\"")))?;
@@ -1008,12 +976,12 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                     )));
                 }
             }
-            "line skip" | "lineskip" => {
+            "line skip" => {
                 skips.line = value
                     .parse()
                     .map_err(|_| Error::msg(format!("line skip: can't parse \"{value}\"")))?
             }
-            "data file" | "datafile" => {
+            "data file" => {
                 if value == "LIST" || value.starts_with("LIST ") {
                     list_mode = true;
                     // The files follow, one a line; none at all is an error below.
@@ -1024,10 +992,8 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                     data_file = Some(vec![value.to_string()]);
                 }
             }
-            "space directions" | "spacings" | "axis mins" | "axismins" | "axis maxs"
-            | "axismaxs" | "centerings" | "centers" | "kinds" | "labels" => {
-                per_axis.push((field, value.to_string()))
-            }
+            "space directions" | "spacings" | "axis mins" | "axis maxs" | "centerings"
+            | "kinds" | "labels" => per_axis.push((canon.to_string(), value.to_string())),
             _ => h.other.push((field, value.to_string())),
         }
     }
@@ -1086,9 +1052,9 @@ fn parse_header(text: &str) -> Result<(Parsed, Option<Vec<String>>)> {
                 h.space_directions = Some(dirs);
             }
             "spacings" => h.spacings = Some(parse_f64s(&field, &value, dim)?),
-            "axis mins" | "axismins" => h.axis_mins = Some(parse_f64s(&field, &value, dim)?),
-            "axis maxs" | "axismaxs" => h.axis_maxs = Some(parse_f64s(&field, &value, dim)?),
-            "centerings" | "centers" => {
+            "axis mins" => h.axis_mins = Some(parse_f64s(&field, &value, dim)?),
+            "axis maxs" => h.axis_maxs = Some(parse_f64s(&field, &value, dim)?),
+            "centerings" => {
                 let w = words();
                 check(w.len())?;
                 h.centerings = Some(
