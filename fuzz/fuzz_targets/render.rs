@@ -13,9 +13,9 @@ use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, Phong};
 use rnd_core::probe::Probe;
-use rnd_core::convo::Convo;
 use rnd_core::kernel::Kernel;
-use rnd_core::render::{dispatch, render, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::march::Loop;
+use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::voxel::Voxel;
 use rnd_core::txf::{Levoy, Lut};
 use rnd_core::volume::Volume;
@@ -38,18 +38,17 @@ impl Bytes<'_> {
     }
 }
 
-/// Every pixel through `RenderSpec::cast` with a (no-op) trace: the one-sample loops.
+/// Every pixel through `RenderSpec::cast` with `Loop::OneSample` and a (no-op) trace.
 struct Traced<'s, 'a>(&'s RenderSpec<'a>);
 impl ConvoTask for Traced<'_, '_> {
     type Output = Vec<f32>;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
-        let mut convo = Convo::<V, K, S>::new(vol);
         let [w, h] = self.0.size();
-        let len = self.0.params.probe.length();
+        let len = self.0.params().probe.length();
         let mut img = vec![0.0f32; (w * h) as usize * len];
         for (px, out) in img.chunks_mut(len).enumerate() {
             let mut ignore = |_: &SampleInfo| {};
-            self.0.cast(&mut convo, px as u32 % w, px as u32 / w, out, Some(&mut ignore));
+            self.0.cast::<V, K, S>(vol, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
         }
         img
     }
@@ -94,7 +93,7 @@ fuzz_target!(|data: &[u8]| {
     let vol = Volume::new(&data, [6, 7, 8], itow).unwrap();
     let Ok(spec) = RenderSpec::new(p.clone(), lut.as_ref(), lev.as_ref(), &lights) else { return };
     let img = render(&spec, AnyVolume::F32(vol), kernel);
-    assert_eq!(img.len(), (p.camera.size[0] * p.camera.size[1]) as usize * spec.channels);
+    assert_eq!(img.len(), (p.camera.size[0] * p.camera.size[1]) as usize * spec.channels());
     if p.outside.is_finite() {
         assert!(img.iter().all(|v| !v.is_nan()), "NaN output for {p:?}");
     }
@@ -123,3 +122,8 @@ fuzz_target!(|data: &[u8]| {
         "-ref lanes {lanes:?} vs one-sample {one:?} for {p:?} {kernel}"
     );
 });
+
+/// The whole image on this thread (these scenes are small and valid).
+fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> Vec<f32> {
+    rnd_core::render::render(spec, vol, k).expect("a small valid scene renders")
+}

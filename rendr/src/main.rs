@@ -110,14 +110,6 @@ fn run() -> ExitCode {
     }
     #[cfg(unix)]
     handle_signals();
-    // RND_AVX2=0: convolve without AVX2 or AVX-512; RND_AVX512=0: without AVX-512 (the
-    // same bits, slower; for comparisons).
-    if std::env::var_os("RND_AVX512").is_some_and(|v| v == "0") {
-        rnd_core::avx::set_avx512(false);
-    }
-    if std::env::var_os("RND_AVX2").is_some_and(|v| v == "0") {
-        rnd_core::avx::set_avx2(false);
-    }
     let argv = match arguments() {
         Ok(a) => a,
         Err(m) => {

@@ -3,46 +3,70 @@
 //! registers. Every lane sees exactly the operations of the SSE path ([`crate::convo`]),
 //! so the results are the same bits whichever is used, on every x86_64 processor.
 
-use core::sync::atomic::{AtomicU8, Ordering};
+/// A vector instruction level asked for (e.g. `RenderParams::simd`); [`Simd::at_most`]
+/// turns it into one this processor runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub enum SimdLevel {
+    /// The baseline of the target (SSE2 on x86_64), or portable code.
+    Baseline,
+    /// AVX2 (x86_64).
+    Avx2,
+    /// AVX2 and AVX-512F (x86_64): the best there is.
+    #[default]
+    Avx512,
+}
 
-/// 0: not yet detected; 1: off; 2: AVX2; 3: AVX2 and AVX-512.
-static STATE: AtomicU8 = AtomicU8::new(0);
+/// A vector instruction level this processor and operating system support, chosen once
+/// per render and passed down to every convolution sum (no global state). Only
+/// [`Simd::detect`] and [`Simd::at_most`] make one, so holding it proves the support.
+/// Images are the same bits at every level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Simd(SimdLevel);
 
-/// The level in use (see [`STATE`]), detecting it the first time.
-fn level() -> u8 {
-    match STATE.load(Ordering::Relaxed) {
-        0 => {
-            let l = detect();
-            STATE.store(l, Ordering::Relaxed);
-            l
-        }
-        l => l,
+impl Simd {
+    /// The best level this processor and operating system support.
+    pub fn detect() -> Simd {
+        Simd(match detect() {
+            3 => SimdLevel::Avx512,
+            2 => SimdLevel::Avx2,
+            _ => SimdLevel::Baseline,
+        })
     }
-}
 
-/// Whether the AVX2 paths are used: the processor and the operating system support
-/// AVX2, and [`set_avx2`] has not turned them off.
-pub fn avx2_enabled() -> bool {
-    level() >= 2
-}
+    /// `level`, or the best supported level below it.
+    pub fn at_most(level: SimdLevel) -> Simd {
+        Simd(level.min(Simd::detect().0))
+    }
 
-/// Whether the AVX-512 paths are used too (the processor and operating system support
-/// AVX-512F, and [`set_avx2`] has not turned the vector paths off).
-pub fn avx512_enabled() -> bool {
-    level() >= 3
-}
+    /// The baseline (always supported).
+    pub const BASELINE: Simd = Simd(SimdLevel::Baseline);
 
-/// Turns the AVX2 and AVX-512 paths off (`false`), or back on where supported
-/// (`true`). Images are the same bits either way; this is for comparisons and
-/// benchmarks. Takes effect for convolution states created afterwards.
-pub fn set_avx2(on: bool) {
-    STATE.store(if on { detect() } else { 1 }, Ordering::Relaxed);
-}
+    /// The level.
+    pub fn level(self) -> SimdLevel {
+        self.0
+    }
 
-/// Leaves AVX2 on but turns the AVX-512 paths off (for comparisons).
-pub fn set_avx512(on: bool) {
-    let l = detect();
-    STATE.store(if on { l } else { l.min(2) }, Ordering::Relaxed);
+    /// Whether the AVX2 paths run at this level.
+    #[inline(always)]
+    pub fn avx2(self) -> bool {
+        self.0 >= SimdLevel::Avx2
+    }
+
+    /// Whether the AVX-512 paths run at this level.
+    #[inline(always)]
+    pub fn avx512(self) -> bool {
+        self.0 >= SimdLevel::Avx512
+    }
+
+    /// What the level uses, for people ("SSE2, AVX2", ...).
+    pub fn describe(self) -> &'static str {
+        match (self.0, cfg!(target_arch = "x86_64")) {
+            (_, false) => "none (portable code)",
+            (SimdLevel::Baseline, true) => "SSE2",
+            (SimdLevel::Avx2, true) => "SSE2, AVX2",
+            (SimdLevel::Avx512, true) => "SSE2, AVX2, AVX-512",
+        }
+    }
 }
 
 /// The best level the processor and operating system support (1, 2 or 3).

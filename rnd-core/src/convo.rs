@@ -49,8 +49,14 @@ pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
 pub(crate) const INDEX_LIMIT: f64 = 1e12;
 
 impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
-    /// New convolution state for `vol`.
+    /// New convolution state for `vol`, with the best vector level the processor has.
     pub fn new(vol: Volume<'v, V>) -> Self {
+        Self::with_simd(vol, crate::avx::Simd::detect())
+    }
+
+    /// New convolution state for `vol` using vector level `simd` (the same bits at every
+    /// level).
+    pub fn with_simd(vol: Volume<'v, V>, simd: crate::avx::Simd) -> Self {
         let w = vol.wtoi();
         let mut gmat = [[0.0f32; 3]; 3];
         for (r, row) in gmat.iter_mut().enumerate() {
@@ -63,8 +69,8 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             vol,
             sizes: [s[0] as i64, s[1] as i64, s[2] as i64],
             gmat,
-            avx: crate::avx::avx2_enabled(),
-            avx512: crate::avx::avx512_enabled(),
+            avx: simd.avx2(),
+            avx512: simd.avx512(),
             _k: PhantomData,
         }
     }
@@ -151,7 +157,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// support indices `n` (inside the volume) and fractional offsets `alpha`, by
     /// [`sums`]; support 4 on x86_64 reads the rows straight from the volume with SSE.
     #[inline(always)]
-    pub(crate) fn sums<const G: bool>(&mut self, n: [i64; 3], alpha: [f64; 3]) -> [f32; 4] {
+    pub(crate) fn sums<const G: bool>(&self, n: [i64; 3], alpha: [f64; 3]) -> [f32; 4] {
         let mut out = [[0.0; 4]];
         self.sums_n::<G, 1>(&[n], &[alpha], &mut out);
         out[0]
@@ -161,7 +167,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// a partial one sample by sample (the same bits either way).
     #[inline(always)]
     pub(crate) fn sums_first<const G: bool, const N: usize>(
-        &mut self,
+        &self,
         n: &[[i64; 3]; N],
         alpha: &[[f64; 3]; N],
         m: usize,
@@ -181,7 +187,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// (positions and offsets as [`locate`] computes them).
     #[inline(always)]
     pub(crate) fn sums_run<const G: bool, const N: usize>(
-        &mut self,
+        &self,
         start: &[f64; 3],
         step: &[f64; 3],
         k: u32,
@@ -227,7 +233,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// instead of one long chain per sample.
     #[inline(always)]
     pub(crate) fn sums_n<const G: bool, const N: usize>(
-        &mut self,
+        &self,
         n: &[[i64; 3]; N],
         alpha: &[[f64; 3]; N],
         out: &mut [[f32; 4]; N],
@@ -802,7 +808,7 @@ mod tests {
         use crate::affine::Affine4;
         use crate::kernel::{Bspln3, Ctmr};
         use crate::volume::Volume;
-        if !crate::avx::avx2_enabled() {
+        if !crate::avx::Simd::detect().avx2() {
             std::eprintln!("skipped: this processor has no AVX2");
             return;
         }
@@ -810,7 +816,7 @@ mod tests {
             let sizes = [9, 7, 8];
             let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
             let vol = Volume::new(data, sizes, itow).unwrap();
-            let mut c = Convo::<V, K, 4>::new(vol);
+            let c = Convo::<V, K, 4>::new(vol);
             let mut sse = Convo::<V, K, 4>::new(vol);
             assert!(c.avx);
             sse.avx = false;

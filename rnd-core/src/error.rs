@@ -23,6 +23,8 @@ pub enum ErrorKind {
     Render,
     /// A synthetic-data request is invalid.
     Sdg,
+    /// Memory for a result could not be had.
+    Memory,
 }
 
 /// An error from `rnd-core`: a kind and a one-line human message.

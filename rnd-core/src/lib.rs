@@ -28,7 +28,7 @@
 //! let cam = CameraSpec { fr: [0., 0., 10.], at: [0., 0., 0.], up: [0., 1., 0.], nc: -3.,
 //!     fc: 3., fov: 10., size: [4, 4], ortho: true };
 //! let spec = RenderSpec::new(RenderParams::new(cam), None, None, &[]).unwrap();
-//! let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
+//! let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent).unwrap();
 //! assert_eq!(img[0], 1.0); // max of the value along the central rays
 //! ```
 #![no_std]
@@ -37,6 +37,7 @@
 extern crate alloc;
 
 pub mod affine;
+pub(crate) mod arith;
 pub mod avx;
 pub mod blend;
 pub mod camera;
@@ -44,6 +45,7 @@ pub mod convo;
 pub mod error;
 pub mod kernel;
 pub mod light;
+pub mod march;
 pub mod math;
 pub mod probe;
 pub mod refarith;

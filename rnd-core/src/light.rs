@@ -97,61 +97,40 @@ impl WorldLights {
     }
 }
 
-/// `x^p` for the specular term, `x` in [0, 1]: whole exponents up to 4096 (the usual
-/// case) by repeated squaring in f64, rounded once to f32 (within 1 ulp of the exact
-/// power, like `powf`, and several times faster); other exponents by `powf`.
-#[inline]
-fn spec_pow(x: f32, p: f32) -> f32 {
-    let n = p as u32;
-    if n as f32 != p || n > 4096 {
-        return math::powf(x, p);
-    }
-    let (mut base, mut e, mut r) = (x as f64, n, 1.0f64);
-    while e > 0 {
-        if e & 1 == 1 {
-            r *= base;
-        }
-        base *= base;
-        e >>= 1;
-    }
-    r as f32
-}
-
-#[inline(always)]
-fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Blinn-Phong (one-sided; N = −g/|g|; specular not multiplied by the material).
-/// `m` material colour, `g` world gradient, `vdir` unit direction from the sample to the
-/// eye.
-#[inline]
+/// Blinn-Phong shading of material colour `m` at a sample with world gradient `g`, for
+/// `to_eye` the unit direction to the eye and `lights` world (colour, unit direction)
+/// pairs, in the course reference's operation order (both arithmetics use it): the
+/// normal n = −g·(1/|g|), one-sided diffuse max(n·l, 0), the half vector
+/// h = (l + v)·(1/|l + v|), specular ks·max(n·h, 0)^p not multiplied by the material
+/// colour: `ka m + Σ c (kd (n·l) m + ks (n·h)^p)`. Ambient only where the gradient is
+/// zero or not finite; no specular term where l + v is zero.
 pub fn blinn_phong(
     ph: &Phong,
-    lights: &WorldLights,
+    lights: &[([f32; 3], [f32; 3])],
     m: [f32; 3],
     g: [f32; 3],
-    vdir: [f32; 3],
+    to_eye: [f32; 3],
 ) -> [f32; 3] {
-    let amb = [ph.ka * m[0], ph.ka * m[1], ph.ka * m[2]];
-    let gl = math::sqrtf(dot3(g, g));
-    if lights.lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {
-        return amb;
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let scale = |s: f32, a: [f32; 3]| [s * a[0], s * a[1], s * a[2]];
+    let mut out = scale(ph.ka, m);
+    let gl = math::sqrtf(dot(g, g));
+    if lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {
+        return out;
     }
-    let nrm = [-g[0] / gl, -g[1] / gl, -g[2] / gl];
-    let mut out = amb;
-    for &(c, l) in &lights.lights {
-        let ndl = dot3(nrm, l).max(0.0);
-        let h = [l[0] + vdir[0], l[1] + vdir[1], l[2] + vdir[2]];
-        let hl = math::sqrtf(dot3(h, h));
-        let spec = if hl > 0.0 && ph.ks != 0.0 {
-            let ndh = (dot3(nrm, h) / hl).max(0.0);
-            ph.ks * spec_pow(ndh, ph.p)
+    let nrm = scale(1.0 / gl, [-g[0], -g[1], -g[2]]);
+    for &(c, l) in lights {
+        let ndl = dot(nrm, l).max(0.0);
+        let h = [l[0] + to_eye[0], l[1] + to_eye[1], l[2] + to_eye[2]];
+        let hl = math::sqrtf(dot(h, h));
+        let sp = if hl > 0.0 {
+            let ndh = dot(nrm, scale(1.0 / hl, h)).max(0.0);
+            ph.ks * crate::refarith::powf(ndh, ph.p)
         } else {
             0.0
         };
         for i in 0..3 {
-            out[i] += c[i] * (ph.kd * ndl * m[i] + spec);
+            out[i] += c[i] * (ph.kd * ndl * m[i] + sp);
         }
     }
     out

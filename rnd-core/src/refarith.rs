@@ -35,7 +35,7 @@
 use crate::affine::Affine4;
 use crate::camera::CameraSpec;
 use crate::kernel::Kernel;
-use crate::light::{Light, Phong};
+use crate::light::Light;
 use crate::math;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -285,18 +285,15 @@ fn place<K: Kernel<S>, const S: usize>(x: f32, size: usize) -> Option<(i64, f32)
     }
 }
 
-/// First support indices when the support of index position `p` is inside `vol`.
-#[inline]
-pub fn support_start<V: Voxel, K: Kernel<S>, const S: usize>(
-    vol: &Volume<'_, V>,
-    p: V3,
-) -> Option<[i64; 3]> {
-    let sz = vol.sizes();
-    let mut n = [0i64; 3];
+/// First support index and fractions per axis of index position `p` when the whole
+/// support is inside a volume of `sizes` (the inside rule in f32).
+#[inline(always)]
+pub fn place3<K: Kernel<S>, const S: usize>(p: V3, sizes: [usize; 3]) -> Option<([i64; 3], V3)> {
+    let (mut n, mut f) = ([0i64; 3], [0.0f32; 3]);
     for a in 0..3 {
-        n[a] = place::<K, S>(p[a], sz[a])?.0;
+        (n[a], f[a]) = place::<K, S>(p[a], sizes[a])?;
     }
-    Some(n)
+    Some((n, f))
 }
 
 /// Convolves `vol` at index position `p` (value, and the index gradient when `grad`);
@@ -353,80 +350,6 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
 /// with `params.reference` (rendr refuses them; the sums assert it).
 pub const MAX_AXIS: usize = (1 << 24) - 1;
 
-/// [`LANES`] consecutive samples of one ray, placed in the volume: each lane computes
-/// exactly what the one-sample loop does for its sample (view position, world position,
-/// index position, then the support placement per axis, as [`support_start`]), side by
-/// side in vector registers.
-#[derive(Debug, Clone, Copy)]
-pub struct Block {
-    /// View depth (third view coordinate) of each sample.
-    pub z: [f32; LANES],
-    /// Whether each sample's kernel support is inside the volume.
-    pub inside: [bool; LANES],
-    /// First support index per axis and lane (a whole number where inside).
-    pub lo: [[f32; LANES]; 3],
-    /// Fractional offset per axis and lane (meaningful where inside).
-    pub al: [[f32; LANES]; 3],
-}
-
-impl Block {
-    /// Samples `k0 .. k0 + LANES` of `ray` through `cam`, into `vol` via `wtoi`.
-    #[inline(always)]
-    pub fn new<V: Voxel, K: Kernel<S>, const S: usize>(
-        cam: &RefCamera,
-        ray: &RefRay,
-        wtoi: &RefIndex,
-        vol: &Volume<'_, V>,
-        k0: u32,
-    ) -> Block {
-        let kf: [f32; LANES] = core::array::from_fn(|l| (k0 + l as u32) as f32);
-        let mut pv = [[0.0f32; LANES]; 3];
-        for a in 0..3 {
-            for l in 0..LANES {
-                pv[a][l] = ray.start[a] + kf[l] * ray.step[a];
-            }
-        }
-        let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
-        let mut pw = [[0.0f32; LANES]; 3];
-        for r in 0..3 {
-            for l in 0..LANES {
-                pw[r][l] = u[r] * pv[0][l] + v[r] * pv[1][l] + n[r] * pv[2][l] + fr[r] * 1.0;
-            }
-        }
-        let (m, t) = (&wtoi.m, &wtoi.t);
-        let sz = vol.sizes();
-        let mut b = Block {
-            z: pv[2],
-            inside: [true; LANES],
-            lo: [[0.0; LANES]; 3],
-            al: [[0.0; LANES]; 3],
-        };
-        for a in 0..3 {
-            let top = sz[a] as f32 - 1.0;
-            for l in 0..LANES {
-                let x = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
-                // `place`, lane by lane.
-                let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
-                let base = math::floorf(y);
-                let lo = base + K::LO as f32;
-                b.inside[l] &= (lo >= 0.0) & (lo + (S as f32 - 1.0) <= top);
-                b.lo[a][l] = lo;
-                b.al[a][l] = x - base;
-            }
-        }
-        b
-    }
-
-    /// Support start and fractions of lane `l` (inside).
-    #[inline(always)]
-    pub fn lane(&self, l: usize) -> ([i64; 3], [f32; 3]) {
-        (
-            core::array::from_fn(|a| self.lo[a][l] as i64),
-            core::array::from_fn(|a| self.al[a][l]),
-        )
-    }
-}
-
 /// A range of sample numbers `first ..= last` (within `0 ..= kmax`) outside which no
 /// sample of `ray` is inside `vol` for a kernel of support `S`, as [`Block::new`]
 /// decides it in f32; `None` when no sample can be inside. Found once per ray in f64
@@ -446,6 +369,47 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
     vol: &Volume<'_, V>,
     kmax: u32,
 ) -> Option<(u32, u32)> {
+    let kmax_f = kmax as f64;
+    let Some(line) = index_line(cam, ray, wtoi, kmax) else {
+        return Some((0, kmax));
+    };
+    let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
+    let sz = vol.sizes();
+    let (mut lo, mut hi) = (0.0f64, kmax_f);
+    for a in 0..3 {
+        let (x0, x1, err) = (line.s[a] + half, line.d[a], line.err[a]);
+        // Inside in f32: floor(y) + LO >= 0 and floor(y) + LO + S - 1 <= size - 1, that
+        // is y in [-LO, size - LO - S + 1).
+        let ylo = -(K::LO as f64) - err;
+        let yhi = (sz[a] as f64 - K::LO as f64 - S as f64 + 1.0) + err;
+        if x1 == 0.0 {
+            if x0 < ylo || x0 > yhi {
+                return None;
+            }
+            continue;
+        }
+        let (k_a, k_b) = ((ylo - x0) / x1, (yhi - x0) / x1);
+        lo = lo.max(k_a.min(k_b));
+        hi = hi.min(k_a.max(k_b));
+    }
+    let first = (math::floor(lo) - 1.0).max(0.0);
+    let last = (math::ceil(hi) + 1.0).min(kmax_f);
+    if first > last {
+        return None;
+    }
+    Some((first as u32, last as u32))
+}
+
+/// The index-space line `s + k d` of `ray` in exact arithmetic on the f32 parameters,
+/// with a bound `err` per axis on how far the f32 index position of any sample
+/// 0 ..= kmax (plus 0.5 for odd supports, rounded) lies from it (see
+/// [`inside_span`]); None when a number is not finite.
+pub(crate) fn index_line(
+    cam: &RefCamera,
+    ray: &RefRay,
+    wtoi: &RefIndex,
+    kmax: u32,
+) -> Option<crate::arith::Line> {
     let f = |x: f32| x as f64;
     let kmax_f = kmax as f64;
     let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
@@ -464,39 +428,23 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
         f(u[r]).abs() * pmax[0] + f(v[r]).abs() * pmax[1] + f(n[r]).abs() * pmax[2] + f(fr[r]).abs()
     });
     let unit = 1.0 / (1u32 << 24) as f64;
-    let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
-    let sz = vol.sizes();
-    let (mut lo, mut hi) = (0.0f64, kmax_f);
+    let mut line = crate::arith::Line {
+        s: [0.0; 3],
+        d: [0.0; 3],
+        err: [0.0; 3],
+    };
     for a in 0..3 {
         let m = wtoi.m[a].map(f);
         let t = f(wtoi.t[a]);
-        let x0 = m[0] * w0[0] + m[1] * w0[1] + m[2] * w0[2] + t + half;
-        let x1 = m[0] * w1[0] + m[1] * w1[1] + m[2] * w1[2];
+        line.s[a] = m[0] * w0[0] + m[1] * w0[1] + m[2] * w0[2] + t;
+        line.d[a] = m[0] * w1[0] + m[1] * w1[1] + m[2] * w1[2];
         let mag = m[0].abs() * wmag[0] + m[1].abs() * wmag[1] + m[2].abs() * wmag[2] + t.abs();
-        let err = 16.0 * unit * (mag + 1.0);
-        // Inside in f32: floor(y) + LO >= 0 and floor(y) + LO + S - 1 <= size - 1, that
-        // is y in [-LO, size - LO - S + 1).
-        let ylo = -(K::LO as f64) - err;
-        let yhi = (sz[a] as f64 - K::LO as f64 - S as f64 + 1.0) + err;
-        if !(x0.is_finite() && x1.is_finite() && err.is_finite()) {
-            return Some((0, kmax));
+        line.err[a] = 16.0 * unit * (mag + 1.0);
+        if !(line.s[a].is_finite() && line.d[a].is_finite() && line.err[a].is_finite()) {
+            return None;
         }
-        if x1 == 0.0 {
-            if x0 < ylo || x0 > yhi {
-                return None;
-            }
-            continue;
-        }
-        let (k_a, k_b) = ((ylo - x0) / x1, (yhi - x0) / x1);
-        lo = lo.max(k_a.min(k_b));
-        hi = hi.min(k_a.max(k_b));
     }
-    let first = (math::floor(lo) - 1.0).max(0.0);
-    let last = (math::ceil(hi) + 1.0).min(kmax_f);
-    if first > last {
-        return None;
-    }
-    Some((first as u32, last as u32))
+    Some(line)
 }
 
 /// Samples convolved together by [`Lanes::convolve`].
@@ -582,16 +530,17 @@ impl<const S: usize> Lanes<S> {
     pub fn convolve<V: Voxel, K: Kernel<S>, const G: bool>(
         &self,
         vol: &Volume<'_, V>,
+        simd: crate::avx::Simd,
         out: &mut [[f32; 4]; LANES],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if S == 4 && crate::avx::avx512_enabled() {
+        if S == 4 && simd.avx512() {
             // SAFETY: the processor and operating system support AVX-512F.
             unsafe { self.convolve_avx512::<V, K, G>(vol, out) };
             return;
         }
         #[cfg(target_arch = "x86_64")]
-        if crate::avx::avx2_enabled() {
+        if simd.avx2() {
             // SAFETY: the processor and operating system support AVX2.
             unsafe { self.convolve_avx2::<V, K, G>(vol, out) };
             return;
@@ -934,28 +883,6 @@ pub fn correct_alpha(a: f32, ex: f32) -> f32 {
     1.0 - powf(1.0 - a, ex)
 }
 
-/// Blinn-Phong as the reference computes it (one-sided, specular not multiplied by the
-/// material colour): `m` material colour, `g` world gradient, `to_eye` unit direction to
-/// the eye, `lights` from [`RefCamera::lights`].
-pub fn blinn_phong(ph: &Phong, lights: &[(V3, V3)], m: V3, g: V3, to_eye: V3) -> V3 {
-    let mut out = scale(ph.ka, m);
-    let gl = math::sqrtf(dot(g, g));
-    if lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {
-        return out;
-    }
-    let nrm = scale(1.0 / gl, [-g[0], -g[1], -g[2]]);
-    for &(c, l) in lights {
-        let ndl = dot(nrm, l).max(0.0);
-        let h = normalize([l[0] + to_eye[0], l[1] + to_eye[1], l[2] + to_eye[2]]);
-        let ndh = dot(nrm, h).max(0.0);
-        let sp = powf(ndh, ph.p);
-        for i in 0..3 {
-            out[i] += c[i] * (ph.kd * ndl * m[i] + ph.ks * sp);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1035,6 +962,7 @@ mod tests {
 #[cfg(test)]
 mod lane_tests {
     use super::*;
+    use crate::avx::{Simd, SimdLevel};
     use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Tent};
 
     /// Deterministic pseudo-random numbers in [0, 1).
@@ -1049,7 +977,7 @@ mod lane_tests {
         }
     }
 
-    fn check<V: Voxel, K: Kernel<S>, const S: usize>(data: &[V], sz: [usize; 3]) {
+    fn check<V: Voxel, K: Kernel<S>, const S: usize>(data: &[V], sz: [usize; 3], simd: Simd) {
         let vol = Volume::new(data, sz, Affine4::IDENTITY).unwrap();
         let mut rng = Lcg(S as u64 * 77 + sz[0] as u64);
         for round in 0..200 {
@@ -1080,8 +1008,8 @@ mod lane_tests {
             }
             let mut v = [[0.0f32; 4]; LANES];
             let mut vg = [[0.0f32; 4]; LANES];
-            lanes.convolve::<V, K, false>(&vol, &mut v);
-            lanes.convolve::<V, K, true>(&vol, &mut vg);
+            lanes.convolve::<V, K, false>(&vol, simd, &mut v);
+            lanes.convolve::<V, K, true>(&vol, simd, &mut vg);
             for (l, p) in pts.iter().enumerate() {
                 let s = convolve::<V, K, S>(&vol, *p, true).unwrap();
                 let bits = |a: [f32; 4]| a.map(f32::to_bits);
@@ -1092,13 +1020,13 @@ mod lane_tests {
         }
     }
 
-    fn all_kernels<V: Voxel>(data: &[V], sz: [usize; 3]) {
-        check::<V, BoxK, 1>(data, sz);
-        check::<V, Tent, 2>(data, sz);
-        check::<V, Bspln2, 3>(data, sz);
-        check::<V, Bspln3, 4>(data, sz);
-        check::<V, Ctmr, 4>(data, sz);
-        check::<V, C4Hexic, 6>(data, sz);
+    fn all_kernels<V: Voxel>(data: &[V], sz: [usize; 3], simd: Simd) {
+        check::<V, BoxK, 1>(data, sz, simd);
+        check::<V, Tent, 2>(data, sz, simd);
+        check::<V, Bspln2, 3>(data, sz, simd);
+        check::<V, Bspln3, 4>(data, sz, simd);
+        check::<V, Ctmr, 4>(data, sz, simd);
+        check::<V, C4Hexic, 6>(data, sz, simd);
     }
 
     /// Lanes give exactly `convolve`'s bits, for every kernel, both voxel types, with
@@ -1110,16 +1038,13 @@ mod lane_tests {
         let mut rng = Lcg(5);
         let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();
         let s: Vec<i16> = f.iter().map(|&x| x as i16).collect();
-        // AVX-512 (where the processor has it), AVX2 only, and no AVX.
-        for level in [2, 1, 0] {
-            crate::avx::set_avx2(level > 0);
-            if level == 1 {
-                crate::avx::set_avx512(false);
-            }
-            all_kernels(&f, sz);
-            all_kernels(&s, sz);
+        // AVX-512 (where the processor has it), AVX2 only, and no AVX: each level is
+        // passed down, so tests running at once cannot disturb each other.
+        for level in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline] {
+            let simd = Simd::at_most(level);
+            all_kernels(&f, sz, simd);
+            all_kernels(&s, sz, simd);
         }
-        crate::avx::set_avx2(true);
     }
 
     /// The repeated-squaring path of `powf` gives the library `pow`'s f32 bits.
@@ -1161,7 +1086,7 @@ mod lane_tests {
         assert!(fast > tried * 97 / 100, "{fast} of {tried}");
     }
 
-    /// Every sample [`Block::new`] finds inside lies within [`inside_span`], and the
+    /// Every sample the reference arithmetic finds inside lies within [`inside_span`], and the
     /// span is tight (a sample or two wider at each end): random perspective and
     /// orthographic rays, grazing and missing ones included, through sheared volumes
     /// far from the origin (large coordinates, so f32 rounding is coarse), for supports
@@ -1206,15 +1131,14 @@ mod lane_tests {
                     let ray = cam.ray(hi, vi, sep, 1.0);
                     let span = inside_span::<f32, K, S>(&cam, &ray, &wtoi, &vol, kmax);
                     let mut inside = alloc::vec::Vec::new();
-                    let mut k0 = 0;
-                    while k0 <= kmax {
-                        let b = Block::new::<f32, K, S>(&cam, &ray, &wtoi, &vol, k0);
-                        for l in 0..LANES {
-                            if b.inside[l] && k0 + l as u32 <= kmax {
-                                inside.push(k0 + l as u32);
-                            }
+                    for k in 0..=kmax {
+                        // The reference arithmetic's own sample position and inside rule.
+                        let kf = k as f32;
+                        let pv = core::array::from_fn(|a| ray.start[a] + kf * ray.step[a]);
+                        let pi = wtoi.point(cam.to_world(pv, 1.0));
+                        if place3::<K, S>(pi, vol.sizes()).is_some() {
+                            inside.push(k);
                         }
-                        k0 += LANES as u32;
                     }
                     match (span, inside.first(), inside.last()) {
                         (None, None, _) => seen[0] += 1,

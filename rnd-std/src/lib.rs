@@ -142,3 +142,18 @@ pub fn human_bytes(b: u64) -> String {
         format!("{v:.1} {}", units[u])
     }
 }
+
+/// The vector level the environment asks for: `RND_AVX2=0` turns AVX2 and AVX-512 off,
+/// `RND_AVX512=0` AVX-512 (the same images, slower; for comparisons); otherwise the
+/// best there is. Lowered to what the processor has when a render starts.
+pub fn simd_level_from_env() -> rnd_core::avx::SimdLevel {
+    use rnd_core::avx::SimdLevel;
+    let off = |v: &str| std::env::var_os(v).is_some_and(|x| x == "0");
+    if off("RND_AVX2") {
+        SimdLevel::Baseline
+    } else if off("RND_AVX512") {
+        SimdLevel::Avx2
+    } else {
+        SimdLevel::Avx512
+    }
+}

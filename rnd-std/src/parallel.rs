@@ -7,7 +7,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
 use rnd_core::skip::{SkipGrid, SkipPlan};
@@ -37,16 +36,17 @@ pub fn render(
     threads: usize,
     progress: bool,
 ) -> crate::Result<Vec<f32>> {
+    spec.check_volume(vol.sizes())?;
     let [w, h] = spec.size();
     let len = (w as u64)
         .checked_mul(h as u64)
-        .and_then(|n| n.checked_mul(spec.channels as u64))
+        .and_then(|n| n.checked_mul(spec.channels() as u64))
         .filter(|&n| usize::try_from(n).is_ok())
         .ok_or_else(|| crate::Error::msg(format!("a {w} x {h} image is too large to address")))?;
     let what = format!(
         "a {w} x {h} image with {} channel{}",
-        spec.channels,
-        if spec.channels == 1 { "" } else { "s" }
+        spec.channels(),
+        if spec.channels() == 1 { "" } else { "s" }
     );
     crate::check_memory(len.saturating_mul(4), &what)?;
     let mut out: Vec<f32> = Vec::new();
@@ -64,12 +64,15 @@ pub fn render(
             let spec = self.spec;
             let [w, h] = spec.size();
             let (w, h) = (w as usize, h as usize);
-            let ch = spec.channels;
+            let ch = spec.channels();
             let mut out = self.out;
             let t0 = Instant::now();
             let clock = || t0.elapsed().as_secs_f64() * 1000.0;
-            let clock_ref: Option<&(dyn Fn() -> f64 + Sync)> =
-                if spec.params.time { Some(&clock) } else { None };
+            let clock_ref: Option<&(dyn Fn() -> f64 + Sync)> = if spec.params().time {
+                Some(&clock)
+            } else {
+                None
+            };
             let show = self.progress && std::io::stderr().is_terminal();
             let done = AtomicUsize::new(0);
             let nbands = h.div_ceil(BAND);
@@ -86,21 +89,18 @@ pub fn render(
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
             let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
-            let work = || {
-                let mut convo = Convo::<V, K, S>::new(vol);
-                loop {
-                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                    let Some((b, chunk)) = next else { break };
-                    let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
-                    spec.render_rows(
-                        &mut convo,
-                        skip.as_ref(),
-                        rows,
-                        chunk,
-                        clock_ref.map(|c| c as &dyn Fn() -> f64),
-                    );
-                    report(done.fetch_add(1, Ordering::Relaxed) + 1);
-                }
+            let work = || loop {
+                let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                let Some((b, chunk)) = next else { break };
+                let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
+                spec.render_rows::<V, K, S>(
+                    vol,
+                    skip.as_ref(),
+                    rows,
+                    chunk,
+                    clock_ref.map(|c| c as &dyn Fn() -> f64),
+                );
+                report(done.fetch_add(1, Ordering::Relaxed) + 1);
             };
             if self.threads <= 1 {
                 work();

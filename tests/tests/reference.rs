@@ -4,8 +4,8 @@ use std::path::Path;
 
 use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
-use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
+use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
 use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::txf::Lut;
@@ -56,7 +56,6 @@ struct NearestBoundary<'s, 'a> {
 impl ConvoTask for NearestBoundary<'_, '_> {
     type Output = f64;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> f64 {
-        let mut convo = Convo::<V, K, S>::new(vol);
         let mut best = f64::INFINITY;
         let len = self.lut.entries().len() as f64;
         let (lo, hi) = (self.lut.vmin(), self.lut.vmax());
@@ -67,8 +66,14 @@ impl ConvoTask for NearestBoundary<'_, '_> {
             }
         };
         let mut out = [0.0f32; 4];
-        self.spec
-            .cast(&mut convo, self.px[0], self.px[1], &mut out, Some(&mut cb));
+        self.spec.cast::<V, K, S>(
+            vol,
+            self.px[0],
+            self.px[1],
+            &mut out,
+            Loop::OneSample,
+            Some(&mut cb),
+        );
         best
     }
 }

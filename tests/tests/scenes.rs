@@ -4,13 +4,11 @@
 use rnd_core::affine::Affine4;
 use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
-use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::light::{Light, Phong};
+use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
-use rnd_core::render::{
-    dispatch, render, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo,
-};
+use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::sdg::{self, Grid};
 use rnd_core::txf::{Levoy, Lut, Txf, TxfSpace};
 use rnd_core::volume::Volume;
@@ -261,13 +259,13 @@ fn impulse_lands_where_projected() {
                 let spec = RenderSpec::new(p, None, None, &[]).unwrap();
                 let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent);
                 let (h, v) = argmax(&img, 61);
-                let (ph, pv) = spec.camera.project(spot);
+                let (ph, pv) = spec.camera().project(spot);
                 assert!(
                     (h as f64 - ph).abs() <= 1.0 && (v as f64 - pv).abs() <= 1.0,
                     "fr {fr:?}: max at ({h},{v}), predicted ({ph:.2},{pv:.2})"
                 );
                 // The look-at point projects to the image centre.
-                let (ch, cv) = spec.camera.project(at);
+                let (ch, cv) = spec.camera().project(at);
                 assert!((ch - 30.0).abs() < 1e-9 && (cv - 23.0).abs() < 1e-9);
             }
         }
@@ -315,7 +313,7 @@ fn look_at_centre_up_is_up_aspect() {
             let left = at_pix(0, 10);
             let right = at_pix(40, 10);
             let rdir = rnd_core::math::v3::sub(right, left);
-            assert!(rnd_core::math::v3::dot(rdir, spec.camera.u.to_array()) > 0.0);
+            assert!(rnd_core::math::v3::dot(rdir, spec.camera().u.to_array()) > 0.0);
             // Square pixels: horizontal and vertical neighbour spacing are equal.
             let dx =
                 rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(21, 10), at_pix(20, 10)));
@@ -323,8 +321,8 @@ fn look_at_centre_up_is_up_aspect() {
                 rnd_core::math::v3::len(rnd_core::math::v3::sub(at_pix(20, 11), at_pix(20, 10)));
             assert!((dx - dy).abs() < 1e-5 * dx, "{dx} vs {dy}");
             // FOV: the image-plane height through the look-at is 2 d tan(fov/2).
-            let d = spec.camera.d;
-            assert!((spec.camera.hght - 2.0 * d * (15f64).to_radians().tan()).abs() < 1e-12);
+            let d = spec.camera().d;
+            assert!((spec.camera().hght - 2.0 * d * (15f64).to_radians().tan()).abs() < 1e-12);
         }
     }
 }
@@ -407,12 +405,12 @@ struct Trace<'s, 'a> {
 impl ConvoTask for Trace<'_, '_> {
     type Output = Vec<SampleInfo>;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<SampleInfo> {
-        let mut c = Convo::<V, K, S>::new(vol);
         let mut all = Vec::new();
         let mut cb = |s: &SampleInfo| all.push(*s);
         let mut out = [0.0f32; 4];
+        let [h, v] = self.px;
         self.spec
-            .cast(&mut c, self.px[0], self.px[1], &mut out, Some(&mut cb));
+            .cast::<V, K, S>(vol, h, v, &mut out, Loop::OneSample, Some(&mut cb));
         all
     }
 }
@@ -457,7 +455,7 @@ fn depth_cue_is_linear_in_depth() {
                 px: [3, 3],
             },
         );
-        let (ncv, fcv) = (spec.camera.ncv, spec.camera.fcv);
+        let (ncv, fcv) = (spec.camera().ncv, spec.camera().fcv);
         let mut n = 0;
         for s in samples.iter().filter(|s| s.counted) {
             let tau = (-s.pos_v[2] - ncv) / (fcv - ncv);
@@ -524,7 +522,7 @@ fn blinn_phong_on_a_sphere() {
         let l = rnd_core::math::v3::normalize(ldir);
         let hv = rnd_core::math::v3::normalize([l[0], l[1], l[2] + 1.0]);
         let spot = rnd_core::math::v3::scale(0.6, hv);
-        let (ph, pv) = spec.camera.project(spot);
+        let (ph, pv) = spec.camera().project(spot);
         assert!(
             (h as f64 - ph).abs() <= 1.5 && (v as f64 - pv).abs() <= 1.5,
             "highlight at ({h},{v}), predicted ({ph:.1},{pv:.1})"
@@ -1068,8 +1066,8 @@ proptest::proptest! {
     }
 }
 
-/// Renders every pixel of `spec` through [`RenderSpec::cast`] with a (no-op) trace, which
-/// takes the one-sample loops (`cast_skip`, or `cast_ref` one sample at a time).
+/// Renders every pixel of `spec` through [`RenderSpec::cast`] with [`Loop::OneSample`]
+/// and a (no-op) trace.
 struct TracedImage<'s, 'a> {
     spec: &'s RenderSpec<'a>,
 }
@@ -1077,18 +1075,23 @@ struct TracedImage<'s, 'a> {
 impl ConvoTask for TracedImage<'_, '_> {
     type Output = Vec<f32>;
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
-        let mut convo = Convo::<V, K, S>::new(vol);
         let [w, h] = self.spec.size();
-        let len = self.spec.params.probe.length();
+        let len = self.spec.params().probe.length();
         let mut img = vec![0.0f32; (w * h) as usize * len];
         for vi in 0..h {
             for hi in 0..w {
                 let i = (vi * w + hi) as usize * len;
                 let mut ignore = |_: &SampleInfo| {};
+                let px = &mut img[i..i + len];
                 self.spec
-                    .cast(&mut convo, hi, vi, &mut img[i..i + len], Some(&mut ignore));
+                    .cast::<V, K, S>(vol, hi, vi, px, Loop::OneSample, Some(&mut ignore));
             }
         }
         img
     }
+}
+
+/// The whole image on this thread (these scenes are small and valid).
+fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> Vec<f32> {
+    rnd_core::render::render(spec, vol, k).expect("a small valid scene renders")
 }

@@ -45,15 +45,7 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         std::env::consts::ARCH,
         if cfg!(debug_assertions) { "on" } else { "off" },
         rnd_std::parallel::default_threads(),
-        if rnd_core::avx::avx512_enabled() {
-            "SSE2, AVX2, AVX-512"
-        } else if rnd_core::avx::avx2_enabled() {
-            "SSE2, AVX2"
-        } else if cfg!(target_arch = "x86_64") {
-            "SSE2"
-        } else {
-            "none (portable code)"
-        },
+        rnd_core::avx::Simd::at_most(rnd_std::simd_level_from_env()).describe(),
     );
     Ok(())
 }

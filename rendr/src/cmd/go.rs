@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use rnd_core::blend::Blend;
-use rnd_core::convo::Convo;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::light::Phong;
+use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
 use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::volume::Volume;
@@ -207,8 +207,7 @@ impl ConvoTask for Trace<'_, '_> {
             list6(&g.step_w)
         );
         outln!("  length of ray step {}", g6(g.step_len));
-        let mut convo = Convo::<V, K, S>::new(vol);
-        let plen = spec.params.probe.length();
+        let plen = spec.params().probe.length();
         let mut out = vec![0.0f32; plen];
         let mut cb = |s: &SampleInfo| {
             let f = |v: &[f32]| {
@@ -240,7 +239,7 @@ impl ConvoTask for Trace<'_, '_> {
                 s.accum.count
             );
         };
-        spec.cast(&mut convo, hi, vi, &mut out, Some(&mut cb));
+        spec.cast::<V, K, S>(vol, hi, vi, &mut out, Loop::OneSample, Some(&mut cb));
         let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
         outln!("result: {}", list6(&r));
     }
@@ -307,6 +306,7 @@ pub fn run_cached(
     params.skip_empty = a.get("ess")?;
     params.fast_loop = a.get("fast")?;
     params.reference = a.get("ref")?;
+    params.simd = rnd_std::simd_level_from_env();
     let threads = match a.given("nt") {
         true => a.get::<usize>("nt")?,
         false => rnd_std::parallel::default_threads(),
@@ -361,20 +361,8 @@ pub fn run_cached(
         lights.as_deref().unwrap_or(&[]),
     )?;
     let vol = cache.get(&input, threads)?;
-    if spec.params.reference {
-        if let Some(n) = vol
-            .sizes
-            .iter()
-            .find(|&&n| n > rnd_core::refarith::MAX_AXIS)
-        {
-            bail!(
-                "{}: an axis of {n} samples is beyond exact f32 index arithmetic \
-                 (at most {}); render with -ref false",
-                input.display(),
-                rnd_core::refarith::MAX_AXIS
-            );
-        }
-    }
+    spec.check_volume(vol.sizes)
+        .with_context(|| input.display().to_string())?;
     if debug {
         let [w, h] = spec.size();
         if db[0] < 0 || db[1] < 0 || db[0] as u32 >= w || db[1] as u32 >= h {
@@ -421,7 +409,7 @@ pub fn run_cached(
     }
     let img = Image {
         data,
-        channels: spec.channels,
+        channels: spec.channels(),
         size: [w as usize, h as usize],
     };
     let Some(output) = output else {

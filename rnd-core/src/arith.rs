@@ -1,0 +1,639 @@
+//! The two arithmetics the one ray-marching loop ([`crate::march`]) runs in. A strategy
+//! owns only what must differ for its bits: the scalar type and order of the geometry
+//! (ray start and step, view → world → index), the placement of a sample's kernel
+//! support, the convolution sums, opacity correction and the `over` formula. Everything
+//! else (span, batching, skipping, probing, shading, blending order, early termination,
+//! the trace) is the loop's.
+//!
+//! * [`F64`] (`-ref false`): f64 geometry with the index-space ray precomputed, the
+//!   separable SIMD sums of [`Convo`], opacity correction by `exp`/`ln`, `over` on the
+//!   accumulated opacity.
+//! * [`Reference`] (`-ref true`, the default): the course reference program's f32
+//!   operation sequence ([`crate::refarith`]), its running sums run [`LANES`] samples
+//!   side by side, opacity correction by `powf`, `over` on the transparency.
+
+use crate::avx::Simd;
+use crate::blend::{Accum, Blend};
+use crate::camera::Camera;
+use crate::convo::{grad_to_world, place, world_gmags, Convo, Place};
+use crate::kernel::Kernel;
+use crate::math;
+use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
+use crate::volume::Volume;
+use crate::voxel::Voxel;
+
+/// An index-space line `s + k d` within `err` (per axis) of every sample position a
+/// strategy computes for k up to the ray's end, for provable jumps over empty boxes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Line {
+    pub s: [f64; 3],
+    pub d: [f64; 3],
+    pub err: [f64; 3],
+}
+
+/// The last opacity corrected on a ray (its bits) and the result.
+pub(crate) type Memo = Option<(u32, f32)>;
+
+/// One arithmetic: what the loop asks of the geometry, the convolution and the
+/// compositing of a sample.
+pub(crate) trait Arith {
+    /// One ray's geometry.
+    type Ray: Copy;
+    /// Fractional offsets of a placed sample.
+    type Frac: Copy + Default;
+    /// Whether [`Arith::span`] is exact (every sample in it is inside), so that runs of
+    /// consecutive samples may skip the per-sample test.
+    const EXACT_SPAN: bool;
+
+    /// The ray through pixel (hi, vi).
+    fn ray(&self, hi: u32, vi: u32) -> Self::Ray;
+    /// Opacity-correction exponent of the ray (step length over the unit step).
+    fn alpha_exp(ray: &Self::Ray) -> f32;
+    /// Unit world direction from the ray's samples towards the eye.
+    fn to_eye(ray: &Self::Ray) -> [f32; 3];
+    /// Whether sample k (> 0) is past the far plane.
+    fn past(&self, ray: &Self::Ray, k: u32) -> bool;
+    /// First support index per axis and fractions of sample k, when its kernel support
+    /// is inside the volume (the inside rule).
+    fn place(&self, ray: &Self::Ray, k: u32) -> Option<([i64; 3], Self::Frac)>;
+    /// View, world and index position of sample k (for position probes and the trace).
+    fn positions(&self, ray: &Self::Ray, k: u32) -> [[f64; 3]; 3];
+    /// Depth-cue position of sample k: 0 on the near plane, 1 on the far plane.
+    fn tau(&self, ray: &Self::Ray, k: u32) -> f32;
+    /// Sample numbers `[lo, hi)` within `[0, kend)` outside which no sample is inside;
+    /// None when none is.
+    fn span(&self, ray: &Self::Ray, kend: u32) -> Option<(u32, u32)>;
+    /// The ray's index-space line with its error bound (None: no jumps on this ray).
+    fn line(&self, ray: &Self::Ray, kend: u32) -> Option<Line>;
+    /// Index-space sums [value, ∂x, ∂y, ∂z] (gradient only with `G`) of the first `m`
+    /// of the placed samples.
+    fn convolve<const G: bool, const N: usize>(
+        &self,
+        n: &[[i64; 3]; N],
+        f: &[Self::Frac; N],
+        m: usize,
+        out: &mut [[f32; 4]; N],
+    );
+    /// The sums of the `N` consecutive samples from k, all inside (an exact span), with
+    /// positions computed alongside; false when the strategy has no such path.
+    fn convolve_run<const G: bool, const N: usize>(
+        &self,
+        _ray: &Self::Ray,
+        _k: u32,
+        _out: &mut [[f32; 4]; N],
+    ) -> bool {
+        false
+    }
+    /// World-space gradient from an index-space one.
+    fn grad_world(&self, gi: [f32; 3]) -> [f32; 3];
+    /// World gradient magnitudes of sums `r`.
+    fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
+        r.map(|x| gmag(self.grad_world([x[1], x[2], x[3]])))
+    }
+    /// Opacity `a` corrected for the ray's step; `entry` is the LUT entry whose own
+    /// opacity `a` is, when it is one (for per-entry tables).
+    fn correct(&self, ray: &Self::Ray, a: f32, entry: Option<usize>, memo: &mut Memo) -> f32;
+    /// Blends a counted probe (`over`: rgb and corrected α; `transp` is the running
+    /// transparency, kept by strategies that composite on it).
+    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]);
+}
+
+/// |g| in f32, the one formula of both arithmetics.
+#[inline(always)]
+pub(crate) fn gmag(g: [f32; 3]) -> f32 {
+    math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+}
+
+/// Geometry of one ray in the f64 arithmetic.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayGeom {
+    /// View-space start on the near plane.
+    pub start_v: [f64; 3],
+    /// View-space step between planes.
+    pub step_v: [f64; 3],
+    /// World-space start.
+    pub start_w: [f64; 3],
+    /// World-space step.
+    pub step_w: [f64; 3],
+    /// Length of one step (world units).
+    pub step_len: f64,
+    /// Opacity-correction exponent: step length over the unit step (`-us`).
+    pub alpha_exp: f32,
+    /// Unit direction from a sample towards the eye (world).
+    pub to_eye: [f32; 3],
+}
+
+impl RayGeom {
+    /// The ray through pixel (hi, vi) of `cam`, planes `plane_sep` apart (0: one
+    /// sample), opacity unit step `unit_step`.
+    pub fn new(cam: &Camera, hi: u32, vi: u32, plane_sep: f64, unit_step: f64) -> RayGeom {
+        let (start_v, step_v) = cam.ray(hi, vi, plane_sep);
+        // Direction to the eye from a unit-separation step (valid also when ps = 0).
+        let (_, dir_v) = cam.ray(hi, vi, 1.0);
+        let dir_w = cam.vtow.vector(dir_v);
+        let dl = math::v3::len(dir_w);
+        let step_w = cam.vtow.vector(step_v);
+        let step_len = math::v3::len(step_w);
+        RayGeom {
+            start_v,
+            step_v,
+            start_w: cam.vtow.point(start_v),
+            step_w,
+            step_len,
+            alpha_exp: (step_len / unit_step) as f32,
+            to_eye: dir_w.map(|x| (-x / dl) as f32),
+        }
+    }
+}
+
+/// An f64 ray: its geometry, index-space line and sample count before the far plane.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct F64Ray {
+    g: RayGeom,
+    start_i: [f64; 3],
+    step_i: [f64; 3],
+}
+
+#[inline(always)]
+fn at(s: &[f64; 3], d: &[f64; 3], k: u32) -> [f64; 3] {
+    let kf = k as f64;
+    [s[0] + kf * d[0], s[1] + kf * d[1], s[2] + kf * d[2]]
+}
+
+/// The f64 arithmetic over one volume.
+pub(crate) struct F64<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
+    pub convo: Convo<'v, V, K, S>,
+    pub cam: &'r Camera,
+    pub plane_sep: f64,
+    pub unit_step: f64,
+    /// ln(1 − α) of each LUT entry's clamped opacity.
+    pub ln_transparency: &'r [f64],
+    sizes: [i64; 3],
+}
+
+impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> F64<'r, 'v, V, K, S> {
+    pub fn new(
+        vol: Volume<'v, V>,
+        simd: Simd,
+        cam: &'r Camera,
+        plane_sep: f64,
+        unit_step: f64,
+        ln_transparency: &'r [f64],
+    ) -> Self {
+        let s = vol.sizes();
+        F64 {
+            convo: Convo::with_simd(vol, simd),
+            cam,
+            plane_sep,
+            unit_step,
+            ln_transparency,
+            sizes: s.map(|x| x as i64),
+        }
+    }
+}
+
+impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
+    type Ray = F64Ray;
+    type Frac = [f64; 3];
+    const EXACT_SPAN: bool = true;
+
+    #[inline]
+    fn ray(&self, hi: u32, vi: u32) -> F64Ray {
+        let g = RayGeom::new(self.cam, hi, vi, self.plane_sep, self.unit_step);
+        let wtoi = self.convo.volume().wtoi();
+        F64Ray {
+            start_i: wtoi.point(g.start_w),
+            step_i: wtoi.vector(g.step_w),
+            g,
+        }
+    }
+    #[inline(always)]
+    fn alpha_exp(ray: &F64Ray) -> f32 {
+        ray.g.alpha_exp
+    }
+    #[inline(always)]
+    fn to_eye(ray: &F64Ray) -> [f32; 3] {
+        ray.g.to_eye
+    }
+    #[inline(always)]
+    fn past(&self, ray: &F64Ray, k: u32) -> bool {
+        -(ray.g.start_v[2] + k as f64 * ray.g.step_v[2]) > self.cam.fcv
+    }
+    #[inline(always)]
+    fn place(&self, ray: &F64Ray, k: u32) -> Option<([i64; 3], [f64; 3])> {
+        let p = at(&ray.start_i, &ray.step_i, k);
+        let (mut n, mut f) = ([0i64; 3], [0.0f64; 3]);
+        for a in 0..3 {
+            let Place::Inside(b, al) = place::<K, S>(p[a], self.sizes[a]) else {
+                return None;
+            };
+            (n[a], f[a]) = (b, al);
+        }
+        Some((n, f))
+    }
+    fn positions(&self, ray: &F64Ray, k: u32) -> [[f64; 3]; 3] {
+        [
+            at(&ray.g.start_v, &ray.g.step_v, k),
+            at(&ray.g.start_w, &ray.g.step_w, k),
+            at(&ray.start_i, &ray.step_i, k),
+        ]
+    }
+    #[inline(always)]
+    fn tau(&self, ray: &F64Ray, k: u32) -> f32 {
+        let z = ray.g.start_v[2] + k as f64 * ray.g.step_v[2];
+        ((-z - self.cam.ncv) / (self.cam.fcv - self.cam.ncv)) as f32
+    }
+    fn span(&self, ray: &F64Ray, kmax1: u32) -> Option<(u32, u32)> {
+        // The samples before the far plane: -z(k) never decreases (the step points away
+        // from the eye), so the stopping condition is false … false true … true.
+        let (s, d) = (ray.g.start_v[2], ray.g.step_v[2]);
+        let fcv = self.cam.fcv;
+        let guess = ceil_estimate((-fcv - s) / d);
+        let kend = first_true_near(1, kmax1, guess, |k| -(s + k as f64 * d) > fcv);
+        let (lo, hi) = inside_span_f64::<K, S>(self.sizes, &ray.start_i, &ray.step_i, kend)
+            .unwrap_or((0, kend));
+        (lo < hi).then_some((lo, hi))
+    }
+    fn line(&self, ray: &F64Ray, kend: u32) -> Option<Line> {
+        // s + k d rounded twice: within 2^-52 (|s| + k |d|), and a generous margin.
+        let err = core::array::from_fn(|a| {
+            1e-12 * (ray.start_i[a].abs() + kend as f64 * ray.step_i[a].abs() + 1.0)
+        });
+        Some(Line {
+            s: ray.start_i,
+            d: ray.step_i,
+            err,
+        })
+    }
+    #[inline(always)]
+    fn convolve<const G: bool, const N: usize>(
+        &self,
+        n: &[[i64; 3]; N],
+        f: &[[f64; 3]; N],
+        m: usize,
+        out: &mut [[f32; 4]; N],
+    ) {
+        self.convo.sums_first::<G, N>(n, f, m, out);
+    }
+    #[inline(always)]
+    fn convolve_run<const G: bool, const N: usize>(
+        &self,
+        ray: &F64Ray,
+        k: u32,
+        out: &mut [[f32; 4]; N],
+    ) -> bool {
+        self.convo
+            .sums_run::<G, N>(&ray.start_i, &ray.step_i, k, out);
+        true
+    }
+    #[inline(always)]
+    fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
+        grad_to_world(&self.convo.grad_matrix(), gi)
+    }
+    #[inline(always)]
+    fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
+        world_gmags(&self.convo.grad_matrix(), r)
+    }
+    #[inline(always)]
+    fn correct(&self, ray: &F64Ray, a: f32, entry: Option<usize>, memo: &mut Memo) -> f32 {
+        let ex = ray.g.alpha_exp;
+        match entry {
+            Some(i) if i < self.ln_transparency.len() => {
+                correct_alpha_ln(a, self.ln_transparency[i], ex)
+            }
+            _ => memoized(memo, a, |a| correct_alpha(a, ex)),
+        }
+    }
+    #[inline(always)]
+    fn blend(acc: &mut Accum, _transp: &mut f32, pr: &[f32; 4]) {
+        acc.add(pr);
+    }
+}
+
+/// `f(a)`, or the last result when `a` has the same bits as last time.
+#[inline(always)]
+fn memoized(memo: &mut Memo, a: f32, f: impl FnOnce(f32) -> f32) -> f32 {
+    match *memo {
+        Some((bits, r)) if bits == a.to_bits() => r,
+        _ => {
+            let r = f(a);
+            *memo = Some((a.to_bits(), r));
+            r
+        }
+    }
+}
+
+/// The reference arithmetic over one volume.
+pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
+    pub vol: Volume<'v, V>,
+    pub simd: Simd,
+    pub cam: &'r RefCamera,
+    pub wtoi: RefIndex,
+    pub plane_sep: f32,
+    pub unit_step: f32,
+    /// Sample numbers beyond this are past the far plane on every ray.
+    pub kmax: u32,
+    _k: core::marker::PhantomData<K>,
+}
+
+impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> {
+    pub fn new(
+        vol: Volume<'v, V>,
+        simd: Simd,
+        cam: &'r RefCamera,
+        plane_sep: f32,
+        unit_step: f32,
+        kmax: u32,
+    ) -> Self {
+        Reference {
+            wtoi: RefIndex::new(vol.itow()),
+            vol,
+            simd,
+            cam,
+            plane_sep,
+            unit_step,
+            kmax,
+            _k: core::marker::PhantomData,
+        }
+    }
+
+    #[inline(always)]
+    fn view(ray: &RefRay, k: u32) -> [f32; 3] {
+        let kf = k as f32;
+        core::array::from_fn(|a| ray.start[a] + kf * ray.step[a])
+    }
+}
+
+impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S> {
+    type Ray = RefRay;
+    type Frac = [f32; 3];
+    const EXACT_SPAN: bool = false;
+
+    #[inline]
+    fn ray(&self, hi: u32, vi: u32) -> RefRay {
+        self.cam.ray(hi, vi, self.plane_sep, self.unit_step)
+    }
+    #[inline(always)]
+    fn alpha_exp(ray: &RefRay) -> f32 {
+        ray.alpha_exp
+    }
+    #[inline(always)]
+    fn to_eye(ray: &RefRay) -> [f32; 3] {
+        ray.to_eye
+    }
+    #[inline(always)]
+    fn past(&self, ray: &RefRay, k: u32) -> bool {
+        -Self::view(ray, k)[2] > self.cam.fcv
+    }
+    #[inline(always)]
+    fn place(&self, ray: &RefRay, k: u32) -> Option<([i64; 3], [f32; 3])> {
+        let pi = self.wtoi.point(self.cam.to_world(Self::view(ray, k), 1.0));
+        refarith::place3::<K, S>(pi, self.vol.sizes())
+    }
+    fn positions(&self, ray: &RefRay, k: u32) -> [[f64; 3]; 3] {
+        let pv = Self::view(ray, k);
+        let pw = self.cam.to_world(pv, 1.0);
+        let pi = self.wtoi.point(pw);
+        [pv, pw, pi].map(|p| p.map(f64::from))
+    }
+    #[inline(always)]
+    fn tau(&self, ray: &RefRay, k: u32) -> f32 {
+        let cam = self.cam;
+        (-Self::view(ray, k)[2] - cam.ncv) / (cam.fcv - cam.ncv)
+    }
+    fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32)> {
+        let kmax = kend.saturating_sub(1).min(self.kmax);
+        refarith::inside_span::<V, K, S>(self.cam, ray, &self.wtoi, &self.vol, kmax)
+            .map(|(a, b)| (a, b + 1))
+    }
+    fn line(&self, ray: &RefRay, kend: u32) -> Option<Line> {
+        refarith::index_line(self.cam, ray, &self.wtoi, kend.saturating_sub(1))
+    }
+    #[inline(always)]
+    fn convolve<const G: bool, const N: usize>(
+        &self,
+        n: &[[i64; 3]; N],
+        f: &[[f32; 3]; N],
+        m: usize,
+        out: &mut [[f32; 4]; N],
+    ) {
+        // Whole lanes of LANES samples at a time.
+        let mut lanes = Lanes::<S>::default();
+        let mut res = [[0.0f32; 4]; LANES];
+        let mut i = 0;
+        while i < m {
+            let take = (m - i).min(LANES);
+            for j in i..i + take {
+                lanes.push_placed(&self.vol, n[j], f[j]);
+            }
+            lanes.convolve::<V, K, G>(&self.vol, self.simd, &mut res);
+            out[i..i + take].copy_from_slice(&res[..take]);
+            lanes.clear();
+            i += take;
+        }
+    }
+    #[inline(always)]
+    fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
+        self.wtoi.gradient(gi)
+    }
+    #[inline(always)]
+    fn correct(&self, ray: &RefRay, a: f32, _entry: Option<usize>, memo: &mut Memo) -> f32 {
+        // The ray's exponent is fixed, so the last result serves equal opacities.
+        memoized(memo, a, |a| refarith::correct_alpha(a, ray.alpha_exp))
+    }
+    #[inline(always)]
+    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]) {
+        // `over` keeps the transparency T: C += T·α·rgb, T ·= 1 − α, opacity 1 − T.
+        if acc.blend == Blend::Over {
+            let a = pr[3];
+            for c in 0..3 {
+                acc.acc[c] += *transp * a * pr[c];
+            }
+            *transp *= 1.0 - a;
+            acc.acc[3] = 1.0 - *transp;
+            acc.count += 1;
+        } else {
+            acc.add(pr);
+        }
+    }
+}
+
+/// Opacity `a` clamped to [0, 1] and corrected for a step of `ex` unit steps:
+/// 1 − (1 − a)^ex (0 and 1 are kept as they are), computed as 1 − exp(ex · ln(1 − a)) in
+/// f64 and rounded once to f32.
+#[inline]
+pub(crate) fn correct_alpha(a: f32, ex: f32) -> f32 {
+    correct_alpha_ln(a, ln_transparency(a.clamp(0.0, 1.0)), ex)
+}
+
+/// ln(1 − a) for an opacity `a` in [0, 1] (−∞ for a = 1).
+#[inline]
+pub(crate) fn ln_transparency(a: f32) -> f64 {
+    math::ln((1.0 - a) as f64)
+}
+
+/// [`correct_alpha`] given `l` = ln(1 − clamp(a)), e.g. from a per-LUT-entry table.
+#[inline]
+fn correct_alpha_ln(a: f32, l: f64, ex: f32) -> f32 {
+    let a = a.clamp(0.0, 1.0);
+    if a == 0.0 || a == 1.0 {
+        a
+    } else if l == 0.0 {
+        // 1 − a rounds to 1 in f32: no opacity for any step (also an infinite one, where
+        // the product below would be ∞ · 0).
+        0.0
+    } else {
+        (1.0 - math::exp(ex as f64 * l)) as f32
+    }
+}
+
+/// About ⌈x⌉ (exact for |x| < 2^63; NaN stays NaN), cheaper than a library ceil: for
+/// the estimates that [`first_true_near`] starts from, which need not be exact.
+#[inline(always)]
+fn ceil_estimate(x: f64) -> f64 {
+    if !x.is_finite() {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t < x {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
+/// [`first_true`] starting from `guess`, an estimate of the answer: the predicate is
+/// tried at the estimate and next to it (a close estimate settles it in two calls), and
+/// bisection covers what that leaves open, so any estimate gives the exact answer.
+pub(crate) fn first_true_near(lo: u32, hi: u32, guess: f64, pred: impl Fn(u32) -> bool) -> u32 {
+    if !(guess.is_finite() && lo < hi) {
+        return first_true(lo, hi, pred);
+    }
+    let g = guess.clamp(lo as f64, hi as f64) as u32;
+    if g == hi {
+        // The answer is in [lo, hi]: hi unless pred holds at hi − 1.
+        return if pred(hi - 1) {
+            first_true(lo, hi - 1, pred)
+        } else {
+            hi
+        };
+    }
+    if pred(g) {
+        // The answer is in [lo, g].
+        if g == lo || !pred(g - 1) {
+            g
+        } else {
+            first_true(lo, g - 1, pred)
+        }
+    } else if g + 1 == hi || pred(g + 1) {
+        // The answer is in [g + 1, hi] and holds at g + 1 or there is no more room.
+        g + 1
+    } else {
+        first_true(g + 2, hi, pred)
+    }
+}
+
+/// The first k in [lo, hi) where `pred` holds, for a predicate that is false then true
+/// over the range; `hi` when it never holds.
+pub(crate) fn first_true(mut lo: u32, mut hi: u32, pred: impl Fn(u32) -> bool) -> u32 {
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if pred(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// Samples k in [lo, hi) of the index-space ray `start_i + k step_i` (of `kend`
+/// samples) are exactly those whose kernel support is inside the volume, or None when
+/// the ray's geometry is unusual (non-finite or huge), for per-sample tests.
+fn inside_span_f64<K: Kernel<S>, const S: usize>(
+    sizes: [i64; 3],
+    start_i: &[f64; 3],
+    step_i: &[f64; 3],
+    kend: u32,
+) -> Option<(u32, u32)> {
+    const BIG: f64 = 1e14;
+    let (mut lo, mut hi) = (0u32, kend);
+    for a in 0..3 {
+        let (s, d) = (start_i[a], step_i[a]);
+        if !(s.abs() < BIG && d.abs() < BIG) {
+            return None;
+        }
+        // -1 below the inside range on this axis, 0 in it, +1 above; monotone in k
+        // because x(k) = s + k d is (rounding is monotone) and so is the floor.
+        let class = |k: u32| -> i32 {
+            match place::<K, S>(s + k as f64 * d, sizes[a]) {
+                Place::Below => -1,
+                Place::Inside(..) => 0,
+                Place::Above => 1,
+            }
+        };
+        // The positions where the class changes: the support start floor(x + off) + LO
+        // reaches 0 at x = tlo and passes size − S at x = thi; the samples nearest them
+        // are the estimates the searches start from.
+        let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
+        let tlo = -(K::LO as f64) - off;
+        let thi = sizes[a] as f64 - S as f64 - K::LO as f64 + 1.0 - off;
+        let near = |t: f64| ceil_estimate((t - s) / d);
+        let (a0, a1) = if d > 0.0 {
+            (
+                first_true_near(0, kend, near(tlo), |k| class(k) >= 0),
+                first_true_near(0, kend, near(thi), |k| class(k) > 0),
+            )
+        } else if d < 0.0 {
+            (
+                first_true_near(0, kend, near(thi), |k| class(k) <= 0),
+                first_true_near(0, kend, near(tlo), |k| class(k) < 0),
+            )
+        } else if class(0) == 0 {
+            (0, kend)
+        } else {
+            (0, 0)
+        };
+        lo = lo.max(a0);
+        hi = hi.min(a1);
+    }
+    Some((lo, hi.max(lo)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{first_true, first_true_near};
+
+    /// Starting from any estimate (far off, on either side, at the ends, not finite) the
+    /// search finds what plain bisection finds, for every threshold of a monotone
+    /// predicate.
+    #[test]
+    fn first_true_near_is_exact_from_any_estimate() {
+        for (lo, hi) in [(0u32, 0u32), (0, 1), (0, 7), (1, 40), (3, 300)] {
+            for t in lo..=hi + 1 {
+                let pred = |k: u32| k >= t;
+                let want = first_true(lo, hi, pred);
+                let guesses = (0..=hi + 3).map(|g| g as f64 - 1.5).chain([
+                    f64::NAN,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    -1e300,
+                    1e300,
+                ]);
+                for g in guesses {
+                    assert_eq!(
+                        first_true_near(lo, hi, g, pred),
+                        want,
+                        "[{lo}, {hi}) t {t} g {g}"
+                    );
+                    let g = g.round();
+                    assert_eq!(
+                        first_true_near(lo, hi, g, pred),
+                        want,
+                        "[{lo}, {hi}) t {t} g {g}"
+                    );
+                }
+            }
+        }
+    }
+}

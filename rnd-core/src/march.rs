@@ -1,0 +1,462 @@
+//! The one ray-marching loop, generic over the arithmetic ([`crate::arith`]): the
+//! ray's span, batching, empty-space skipping, probing, shading, blending in order,
+//! early ray termination and the `-db` trace are written here once.
+//!
+//! Samples go through the convolution one at a time ([`Loop::OneSample`]: every sample
+//! from the near plane, outside ones included) or in batches ([`Loop::Batched`]: only
+//! the stretch of the ray that can be inside, [`BATCH`] samples convolved together).
+//! Both give the same bits: a batch is probed and blended in sample order, and what a
+//! batch skips changes nothing (outside samples are not counted by the probes that
+//! batch; a sample of zero opacity under `over` changes only the count).
+
+use crate::arith::{gmag, Arith, Line, Memo};
+use crate::blend::{Accum, Blend};
+use crate::convo::ConvoSample;
+use crate::light::blinn_phong;
+use crate::probe::Probe;
+use crate::render::RenderSpec;
+use crate::skip::{SkipGrid, COARSE_EMPTY, FINE_EMPTY};
+
+/// Samples convolved together by the batched loop.
+pub const BATCH: usize = 16;
+
+/// Which loop casts a ray (the same bits either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Loop {
+    /// Every sample from the near plane, one at a time.
+    OneSample,
+    /// The stretch that can be inside, in batches of [`BATCH`].
+    Batched,
+}
+
+/// Everything known about one sample, for `-db` tracing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleInfo {
+    /// Sample number along the ray.
+    pub k: u32,
+    /// View-space position.
+    pub pos_v: [f64; 3],
+    /// World-space position.
+    pub pos_w: [f64; 3],
+    /// The convolution (index position, inside, value, gradients).
+    pub convo: ConvoSample,
+    /// The probe's value at this sample.
+    pub probe: [f32; 4],
+    /// Whether this sample was blended.
+    pub counted: bool,
+    /// The running blend after this sample.
+    pub accum: Accum,
+}
+
+/// A callback that sees every sample of a ray.
+pub type Trace<'t> = Option<&'t mut dyn FnMut(&SampleInfo)>;
+
+/// The loop over one volume in arithmetic `A`.
+pub(crate) struct March<'s, 'a, A: Arith> {
+    pub spec: &'s RenderSpec<'a>,
+    pub a: A,
+    pub skip: Option<&'s SkipGrid>,
+    /// Volume sizes, and the kernel's support and first support offset.
+    pub sizes: [usize; 3],
+    pub support: usize,
+    pub lo: i32,
+}
+
+/// One ray's running state.
+struct State<'t> {
+    acc: Accum,
+    transp: f32,
+    memo: Memo,
+    trace: Trace<'t>,
+}
+
+/// Samples placed for the convolution, in ray order.
+struct Batch<F, const N: usize> {
+    n: [[i64; 3]; N],
+    f: [F; N],
+    k: [u32; N],
+    m: usize,
+}
+
+impl<'s, 'a, A: Arith> March<'s, 'a, A> {
+    /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels).
+    pub fn cast(&self, hi: u32, vi: u32, out: &mut [f32], mode: Loop, trace: Trace<'_>) {
+        match (mode, self.spec.need_grad) {
+            (Loop::OneSample, true) => self.run::<true, 1>(hi, vi, out, trace),
+            (Loop::OneSample, false) => self.run::<false, 1>(hi, vi, out, trace),
+            (Loop::Batched, true) => self.run::<true, BATCH>(hi, vi, out, trace),
+            (Loop::Batched, false) => self.run::<false, BATCH>(hi, vi, out, trace),
+        }
+    }
+
+    #[inline(always)]
+    fn run<const G: bool, const N: usize>(
+        &self,
+        hi: u32,
+        vi: u32,
+        out: &mut [f32],
+        trace: Trace<'_>,
+    ) {
+        let sp = self.spec;
+        let p = &sp.params;
+        let ray = self.a.ray(hi, vi);
+        let mut st = State {
+            acc: Accum::new(p.blend, p.probe.length()),
+            transp: 1.0,
+            memo: None,
+            trace,
+        };
+        let over = p.blend == Blend::Over;
+        let everywhere = p.probe.everywhere();
+        let kend = if sp.once { 1 } else { sp.kmax + 1 };
+        let (k0, k1) = if N > 1 && !everywhere {
+            match self.a.span(&ray, kend) {
+                Some(s) => s,
+                None => return st.acc.finish(p.outside, out),
+            }
+        } else {
+            (0, kend)
+        };
+        let skip = self.skip.filter(|_| over && p.probe.is_colour());
+        let tracing = st.trace.is_some();
+        let line = match skip {
+            Some(_) if !tracing => self.a.line(&ray, k1),
+            _ => None,
+        };
+        // Runs of consecutive samples with positions computed alongside the sums (an
+        // exact span, nothing to skip).
+        let runs = A::EXACT_SPAN && N > 1 && !over && !everywhere && !tracing;
+        let mut b = Batch::<A::Frac, N> {
+            n: [[0; 3]; N],
+            f: [A::Frac::default(); N],
+            k: [0; N],
+            m: 0,
+        };
+        let mut k = k0;
+        let mut ended = false;
+        while k < k1 && !ended {
+            if runs && b.m == 0 && k1 - k >= N as u32 {
+                let mut res = [[0.0f32; 4]; N];
+                if self.a.convolve_run::<G, N>(&ray, k, &mut res) {
+                    let ks = core::array::from_fn(|i| k + i as u32);
+                    ended = self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res);
+                    k += N as u32;
+                    continue;
+                }
+            }
+            if k > 0 && self.a.past(&ray, k) {
+                break;
+            }
+            if everywhere {
+                ended = self.everywhere(&ray, k, &mut st);
+                k += 1;
+                continue;
+            }
+            let Some((n, f)) = self.a.place(&ray, k) else {
+                if tracing {
+                    if self.flush::<G, N>(&ray, &mut st, &mut b) {
+                        return st.acc.finish(p.outside, out);
+                    }
+                    self.emit(&ray, k, &mut st, None, [0.0; 4], false);
+                }
+                k += 1;
+                continue;
+            };
+            if let Some(sk) = skip {
+                let flags = sk.flags_at(n);
+                if flags & FINE_EMPTY != 0 {
+                    // Inside with opacity 0: blending changes only the count. With the
+                    // coarse flag, every sample up to `last` is too.
+                    let last = match line {
+                        Some(l) if flags & COARSE_EMPTY != 0 => {
+                            let j = self.box_run_end(&l, sk.empty_box(n), k, k1);
+                            if j > k && self.a.past(&ray, j) {
+                                k
+                            } else {
+                                j
+                            }
+                        }
+                        _ => k,
+                    };
+                    if tracing {
+                        if self.flush::<G, N>(&ray, &mut st, &mut b) {
+                            return st.acc.finish(p.outside, out);
+                        }
+                        A::blend(&mut st.acc, &mut st.transp, &[0.0; 4]);
+                        let cs = [0.0; 4];
+                        self.emit(&ray, k, &mut st, Some(cs), [0.0; 4], true);
+                    } else {
+                        st.acc.add_transparent(last - k + 1);
+                    }
+                    k = last + 1;
+                    continue;
+                }
+            }
+            (b.n[b.m], b.f[b.m], b.k[b.m]) = (n, f, k);
+            b.m += 1;
+            k += 1;
+            if b.m == N {
+                ended = self.flush::<G, N>(&ray, &mut st, &mut b);
+            }
+        }
+        if !ended {
+            self.flush::<G, N>(&ray, &mut st, &mut b);
+        }
+        st.acc.finish(p.outside, out);
+    }
+
+    /// Convolves the batch, then probes and blends it in order; true when the ray ends.
+    #[inline(always)]
+    fn flush<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        b: &mut Batch<A::Frac, N>,
+    ) -> bool {
+        let m = core::mem::take(&mut b.m);
+        if m == 0 {
+            return false;
+        }
+        let sp = self.spec;
+        let mut res = [[0.0f32; 4]; N];
+        // Under `over` without Levoy opacity a sample's opacity depends on its value
+        // alone, so the gradient is needed only where the opacity is not zero. The value
+        // is the same bits with or without the gradient.
+        if let (true, Blend::Over, None, Some(lut), false) =
+            (G, sp.params.blend, sp.levoy, sp.lut, st.trace.is_some())
+        {
+            self.a.convolve::<false, N>(&b.n, &b.f, m, &mut res);
+            for i in 0..m {
+                if self.lut_alpha(ray, lut.index(res[i][0] as f64), &mut st.memo) == 0.0 {
+                    st.acc.add_transparent(1);
+                    continue;
+                }
+                let mut one = [[0.0f32; 4]; 1];
+                self.a
+                    .convolve::<true, 1>(&[b.n[i]], &[b.f[i]], 1, &mut one);
+                if self.take::<G>(ray, st, b.k[i], one[0]) {
+                    return true;
+                }
+            }
+            return false;
+        }
+        self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
+        self.blend_batch::<G, N>(ray, st, &b.k, m, &res)
+    }
+
+    /// Probes and blends the first `m` convolved samples (numbers `ks`, sums `res`) in
+    /// order; true when the ray ends.
+    #[inline(always)]
+    fn blend_batch<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        ks: &[u32; N],
+        m: usize,
+        res: &[[f32; 4]; N],
+    ) -> bool {
+        let p = &self.spec.params;
+        if p.blend != Blend::Over && st.trace.is_none() {
+            // One channel under max/sum/mean: no early end, no colour.
+            let xs: Option<[f32; N]> = match p.probe {
+                Probe::Value => Some(res.map(|r| r[0])),
+                Probe::GradMag if G => Some(self.a.gmags(res)),
+                _ => None,
+            };
+            if let Some(xs) = xs {
+                st.acc.add_scalars(&xs[..m]);
+                return false;
+            }
+        }
+        (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i]))
+    }
+
+    /// Probes and blends one convolved sample k (sums `r`); true when the ray ends.
+    #[inline(always)]
+    fn take<const G: bool>(&self, ray: &A::Ray, st: &mut State<'_>, k: u32, r: [f32; 4]) -> bool {
+        let gw = if G {
+            self.a.grad_world([r[1], r[2], r[3]])
+        } else {
+            [0.0; 3]
+        };
+        let mut pr = [0.0f32; 4];
+        let counted = self.probe_inside(ray, k, r[0], gw, &mut st.memo, &mut pr);
+        if counted {
+            A::blend(&mut st.acc, &mut st.transp, &pr);
+        }
+        if st.trace.is_some() {
+            self.emit(ray, k, st, Some(r), pr, counted);
+        }
+        self.opaque_end(&mut st.acc)
+    }
+
+    /// A position or inside probe at sample k (no convolution); true when the ray ends.
+    fn everywhere(&self, ray: &A::Ray, k: u32, st: &mut State<'_>) -> bool {
+        let pos = self.a.positions(ray, k);
+        let inside = self.a.place(ray, k).is_some();
+        let mut pr = [0.0f32; 4];
+        match self.spec.params.probe {
+            Probe::PosView => pr[..3].copy_from_slice(&pos[0].map(|x| x as f32)),
+            Probe::PosWorld => pr[..3].copy_from_slice(&pos[1].map(|x| x as f32)),
+            Probe::PosIndex => pr[..3].copy_from_slice(&pos[2].map(|x| x as f32)),
+            _ => pr[0] = f32::from(u8::from(inside)),
+        }
+        A::blend(&mut st.acc, &mut st.transp, &pr);
+        if st.trace.is_some() {
+            self.emit(ray, k, st, inside.then_some([0.0; 4]), pr, true);
+        }
+        self.opaque_end(&mut st.acc)
+    }
+
+    /// Tells the trace about sample k: `sums` are the index-space sums when inside.
+    fn emit(
+        &self,
+        ray: &A::Ray,
+        k: u32,
+        st: &mut State<'_>,
+        sums: Option<[f32; 4]>,
+        probe: [f32; 4],
+        counted: bool,
+    ) {
+        let [pos_v, pos_w, pos_i] = self.a.positions(ray, k);
+        let r = sums.unwrap_or([0.0; 4]);
+        let grad_i = [r[1], r[2], r[3]];
+        let info = SampleInfo {
+            k,
+            pos_v,
+            pos_w,
+            convo: ConvoSample {
+                pos_i,
+                inside: sums.is_some(),
+                value: r[0],
+                grad_i,
+                grad_w: if self.spec.need_grad && sums.is_some() {
+                    self.a.grad_world(grad_i)
+                } else {
+                    [0.0; 3]
+                },
+            },
+            probe,
+            counted,
+            accum: st.acc,
+        };
+        if let Some(t) = st.trace.as_deref_mut() {
+            t(&info);
+        }
+    }
+
+    /// The probes counted only inside (v, gv, gm, rgba, rgbalit) at sample k for value
+    /// `v` and world gradient `gw`; whether the sample is blended.
+    #[inline(always)]
+    fn probe_inside(
+        &self,
+        ray: &A::Ray,
+        k: u32,
+        v: f32,
+        gw: [f32; 3],
+        memo: &mut Memo,
+        out: &mut [f32; 4],
+    ) -> bool {
+        let sp = self.spec;
+        let p = &sp.params;
+        match p.probe {
+            Probe::Value => out[0] = v,
+            Probe::GradVec => out[..3].copy_from_slice(&gw),
+            Probe::GradMag => out[0] = gmag(gw),
+            Probe::Rgba | Probe::RgbaLit => {
+                let Some(lut) = sp.lut else { return false };
+                let i = lut.index(v as f64);
+                let e = lut.entries()[i];
+                let a = match sp.levoy {
+                    None => self.lut_alpha(ray, i, memo),
+                    Some(lev) => self
+                        .a
+                        .correct(ray, e[3] * lev.opacity(v, gmag(gw)), None, memo),
+                };
+                let mut rgb = [e[0], e[1], e[2]];
+                // A transparent sample is not lit (it adds nothing under `over`).
+                if a != 0.0 && p.probe == Probe::RgbaLit {
+                    rgb = blinn_phong(&p.phong, &sp.lights, rgb, gw, A::to_eye(ray));
+                    if sp.depth_cue {
+                        let tau = self.a.tau(ray, k);
+                        for c in 0..3 {
+                            rgb[c] *= p.dcn[c] + tau * (p.dcf[c] - p.dcn[c]);
+                        }
+                    }
+                }
+                *out = [rgb[0], rgb[1], rgb[2], a];
+            }
+            _ => return false,
+        }
+        true
+    }
+
+    /// The corrected opacity of LUT entry `i` (no Levoy opacity): from the table every
+    /// ray shares (orthographic cameras), else the strategy's correction.
+    #[inline(always)]
+    fn lut_alpha(&self, ray: &A::Ray, i: usize, memo: &mut Memo) -> f32 {
+        let sp = self.spec;
+        match &sp.alpha_table {
+            Some((ex, t)) if *ex == A::alpha_exp(ray) => t[i],
+            _ => {
+                let a = sp.lut.map_or(0.0, |l| l.entries()[i][3]);
+                self.a.correct(ray, a, Some(i), memo)
+            }
+        }
+    }
+
+    /// Early ray termination (`-a1`): under `over`, once the accumulated opacity passes
+    /// alphaNear1 it is taken as 1 and the ray ends (true).
+    #[inline(always)]
+    fn opaque_end(&self, acc: &mut Accum) -> bool {
+        let p = &self.spec.params;
+        if p.blend == Blend::Over && acc.acc[3] > p.alpha_near1 {
+            acc.acc[3] = 1.0;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The last sample in [k, k1) up to which every sample provably has its support
+    /// start in box `bx` (`[first, last]` per axis, cut to the volume's support starts),
+    /// which sample k's is in; k when that cannot be shown. The strategy's positions lie
+    /// within `line.err` of the exact line, so samples whose exact position is that far
+    /// inside the box's position range are members, and the exact line is straight, so
+    /// if samples k and j are, every sample between is.
+    fn box_run_end(&self, line: &Line, bx: [[i64; 2]; 3], k: u32, k1: u32) -> u32 {
+        let o = if self.support % 2 == 1 { 0.5 } else { 0.0 };
+        let lo_off = self.lo as f64 + o;
+        let mut lim = [[0.0f64; 2]; 3];
+        let mut t_end = (k1 - 1) as f64;
+        for a in 0..3 {
+            let (s, d) = (line.s[a], line.d[a]);
+            // Rounding of this f64 arithmetic, far inside the margin.
+            let e = line.err[a] + 1e-12 * (s.abs() + k1 as f64 * d.abs() + 1.0);
+            let first = bx[a][0].max(0) as f64;
+            let last = bx[a][1].min(self.sizes[a] as i64 - self.support as i64) as f64;
+            // Support start floor(x + o) + LO in [first, last] ⇔ x in
+            // [first − LO − o, last + 1 − LO − o).
+            lim[a] = [first - lo_off + e, last + 1.0 - lo_off - e];
+            if d > 0.0 {
+                t_end = t_end.min((lim[a][1] - s) / d);
+            } else if d < 0.0 {
+                t_end = t_end.min((lim[a][0] - s) / d);
+            }
+        }
+        let member = |j: u32| {
+            (0..3).all(|a| {
+                let x = line.s[a] + j as f64 * line.d[a];
+                lim[a][0] <= x && x <= lim[a][1]
+            })
+        };
+        if !(t_end >= k as f64 + 1.0) || !member(k) {
+            return k;
+        }
+        let j = (t_end as u32).min(k1 - 1);
+        [j, j - 1]
+            .into_iter()
+            .find(|&j| j > k && member(j))
+            .unwrap_or(k)
+    }
+}
