@@ -15,7 +15,7 @@
 use crate::avx::Simd;
 use crate::blend::{Accum, Blend};
 use crate::camera::Camera;
-use crate::convo::{grad_to_world, place, world_gmags, Convo, Place};
+use crate::convo::{grad_to_world, locate, place, world_gmags, Convo, Place};
 use crate::kernel::Kernel;
 use crate::math;
 use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
@@ -34,6 +34,30 @@ pub(crate) struct Line {
 /// The last opacity corrected on a ray (its bits) and the result.
 pub(crate) type Memo = Option<(u32, f32)>;
 
+/// Placements of consecutive samples (see [`Arith::place_block`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Placed<F, const N: usize> {
+    /// First support index per axis (where inside).
+    pub n: [[i64; 3]; N],
+    /// Fractional offsets (where inside).
+    pub f: [F; N],
+    /// Whether the support is inside the volume.
+    pub inside: [bool; N],
+    /// Whether the sample is past the far plane.
+    pub past: [bool; N],
+}
+
+impl<F: Copy + Default, const N: usize> Default for Placed<F, N> {
+    fn default() -> Self {
+        Placed {
+            n: [[0; 3]; N],
+            f: [F::default(); N],
+            inside: [false; N],
+            past: [false; N],
+        }
+    }
+}
+
 /// One arithmetic: what the loop asks of the geometry, the convolution and the
 /// compositing of a sample.
 pub(crate) trait Arith {
@@ -41,9 +65,8 @@ pub(crate) trait Arith {
     type Ray: Copy;
     /// Fractional offsets of a placed sample.
     type Frac: Copy + Default;
-    /// Whether [`Arith::span`] is exact (every sample in it is inside), so that runs of
-    /// consecutive samples may skip the per-sample test.
-    const EXACT_SPAN: bool;
+    /// Samples convolved together by the batched loop (8 or 16).
+    const BATCH: usize;
 
     /// The ray through pixel (hi, vi).
     fn ray(&self, hi: u32, vi: u32) -> Self::Ray;
@@ -56,13 +79,36 @@ pub(crate) trait Arith {
     /// First support index per axis and fractions of sample k, when its kernel support
     /// is inside the volume (the inside rule).
     fn place(&self, ray: &Self::Ray, k: u32) -> Option<([i64; 3], Self::Frac)>;
+    /// [`Arith::place`] and [`Arith::past`] for the `N` consecutive samples from `k0`
+    /// (strategies may compute them side by side; the same results). With `exact`,
+    /// every one of them is known to be inside and before the far plane (from an exact
+    /// [`Arith::span`]), and the tests may be left out.
+    #[inline(always)]
+    fn place_block<const N: usize>(
+        &self,
+        ray: &Self::Ray,
+        k0: u32,
+        exact: bool,
+        out: &mut Placed<Self::Frac, N>,
+    ) {
+        let _ = exact;
+        for l in 0..N {
+            let k = k0 + l as u32;
+            out.past[l] = self.past(ray, k);
+            match self.place(ray, k) {
+                Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
+                None => out.inside[l] = false,
+            }
+        }
+    }
     /// View, world and index position of sample k (for position probes and the trace).
     fn positions(&self, ray: &Self::Ray, k: u32) -> [[f64; 3]; 3];
     /// Depth-cue position of sample k: 0 on the near plane, 1 on the far plane.
     fn tau(&self, ray: &Self::Ray, k: u32) -> f32;
-    /// Sample numbers `[lo, hi)` within `[0, kend)` outside which no sample is inside;
-    /// None when none is.
-    fn span(&self, ray: &Self::Ray, kend: u32) -> Option<(u32, u32)>;
+    /// Sample numbers `[lo, hi)` within `[0, kend)` outside which no sample is inside,
+    /// and whether every sample in it is inside and before the far plane (an exact
+    /// span); None when no sample is inside.
+    fn span(&self, ray: &Self::Ray, kend: u32) -> Option<(u32, u32, bool)>;
     /// The ray's index-space line with its error bound (None: no jumps on this ray).
     fn line(&self, ray: &Self::Ray, kend: u32) -> Option<Line>;
     /// Index-space sums [value, ∂x, ∂y, ∂z] (gradient only with `G`) of the first `m`
@@ -195,7 +241,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> F64<'r, 'v, V, K, S> {
 impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
     type Ray = F64Ray;
     type Frac = [f64; 3];
-    const EXACT_SPAN: bool = true;
+    const BATCH: usize = 8;
 
     #[inline]
     fn ray(&self, hi: u32, vi: u32) -> F64Ray {
@@ -231,6 +277,30 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         }
         Some((n, f))
     }
+    /// With `exact`, the placements without the inside tests ([`locate`]: the same
+    /// arithmetic as [`place`]).
+    #[inline(always)]
+    fn place_block<const N: usize>(
+        &self,
+        ray: &F64Ray,
+        k0: u32,
+        exact: bool,
+        out: &mut Placed<[f64; 3], N>,
+    ) {
+        for l in 0..N {
+            let k = k0 + l as u32;
+            if exact {
+                (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
+                (out.inside[l], out.past[l]) = (true, false);
+                continue;
+            }
+            out.past[l] = self.past(ray, k);
+            match self.place(ray, k) {
+                Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
+                None => out.inside[l] = false,
+            }
+        }
+    }
     fn positions(&self, ray: &F64Ray, k: u32) -> [[f64; 3]; 3] {
         [
             at(&ray.g.start_v, &ray.g.step_v, k),
@@ -243,16 +313,19 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         let z = ray.g.start_v[2] + k as f64 * ray.g.step_v[2];
         ((-z - self.cam.ncv) / (self.cam.fcv - self.cam.ncv)) as f32
     }
-    fn span(&self, ray: &F64Ray, kmax1: u32) -> Option<(u32, u32)> {
+    fn span(&self, ray: &F64Ray, kmax1: u32) -> Option<(u32, u32, bool)> {
         // The samples before the far plane: -z(k) never decreases (the step points away
         // from the eye), so the stopping condition is false … false true … true.
         let (s, d) = (ray.g.start_v[2], ray.g.step_v[2]);
         let fcv = self.cam.fcv;
         let guess = ceil_estimate((-fcv - s) / d);
         let kend = first_true_near(1, kmax1, guess, |k| -(s + k as f64 * d) > fcv);
-        let (lo, hi) = inside_span_f64::<K, S>(self.sizes, &ray.start_i, &ray.step_i, kend)
-            .unwrap_or((0, kend));
-        (lo < hi).then_some((lo, hi))
+        let (lo, hi, exact) =
+            match inside_span_f64::<K, S>(self.sizes, &ray.start_i, &ray.step_i, kend) {
+                Some((lo, hi)) => (lo, hi, true),
+                None => (0, kend, false),
+            };
+        (lo < hi).then_some((lo, hi, exact))
     }
     fn line(&self, ray: &F64Ray, kend: u32) -> Option<Line> {
         // s + k d rounded twice: within 2^-52 (|s| + k |d|), and a generous margin.
@@ -367,7 +440,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
 impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S> {
     type Ray = RefRay;
     type Frac = [f32; 3];
-    const EXACT_SPAN: bool = false;
+    const BATCH: usize = LANES;
 
     #[inline]
     fn ray(&self, hi: u32, vi: u32) -> RefRay {
@@ -390,6 +463,52 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let pi = self.wtoi.point(self.cam.to_world(Self::view(ray, k), 1.0));
         refarith::place3::<K, S>(pi, self.vol.sizes())
     }
+    /// Each lane does exactly what [`Arith::place`] does for its sample, side by side.
+    #[inline(always)]
+    fn place_block<const N: usize>(
+        &self,
+        ray: &RefRay,
+        k0: u32,
+        _exact: bool,
+        out: &mut Placed<[f32; 3], N>,
+    ) {
+        let cam = self.cam;
+        let kf: [f32; N] = core::array::from_fn(|l| (k0 + l as u32) as f32);
+        let mut pv = [[0.0f32; N]; 3];
+        for a in 0..3 {
+            for l in 0..N {
+                pv[a][l] = ray.start[a] + kf[l] * ray.step[a];
+            }
+        }
+        let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
+        let mut pw = [[0.0f32; N]; 3];
+        for r in 0..3 {
+            for l in 0..N {
+                pw[r][l] = u[r] * pv[0][l] + v[r] * pv[1][l] + n[r] * pv[2][l] + fr[r] * 1.0;
+            }
+        }
+        let (m, t) = (&self.wtoi.m, &self.wtoi.t);
+        let sz = self.vol.sizes();
+        let mut lo = [[0.0f32; N]; 3];
+        let mut inside = [true; N];
+        for a in 0..3 {
+            let top = sz[a] as f32 - 1.0;
+            for l in 0..N {
+                let x = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
+                // `refarith::place`, lane by lane.
+                let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
+                let base = math::floorf(y);
+                lo[a][l] = base + K::LO as f32;
+                inside[l] &= (lo[a][l] >= 0.0) & (lo[a][l] + (S as f32 - 1.0) <= top);
+                out.f[l][a] = x - base;
+            }
+        }
+        for l in 0..N {
+            out.past[l] = -pv[2][l] > cam.fcv;
+            out.inside[l] = inside[l];
+            out.n[l] = core::array::from_fn(|a| lo[a][l] as i64);
+        }
+    }
     fn positions(&self, ray: &RefRay, k: u32) -> [[f64; 3]; 3] {
         let pv = Self::view(ray, k);
         let pw = self.cam.to_world(pv, 1.0);
@@ -401,10 +520,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let cam = self.cam;
         (-Self::view(ray, k)[2] - cam.ncv) / (cam.fcv - cam.ncv)
     }
-    fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32)> {
+    fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32, bool)> {
         let kmax = kend.saturating_sub(1).min(self.kmax);
         refarith::inside_span::<V, K, S>(self.cam, ray, &self.wtoi, &self.vol, kmax)
-            .map(|(a, b)| (a, b + 1))
+            .map(|(a, b)| (a, b + 1, false))
     }
     fn line(&self, ray: &RefRay, kend: u32) -> Option<Line> {
         refarith::index_line(self.cam, ray, &self.wtoi, kend.saturating_sub(1))
@@ -417,8 +536,14 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         m: usize,
         out: &mut [[f32; 4]; N],
     ) {
-        // Whole lanes of LANES samples at a time.
+        // LANES samples at a time (a whole batch straight into `out`).
         let mut lanes = Lanes::<S>::default();
+        if let Ok(o) = <&mut [[f32; 4]; LANES]>::try_from(&mut out[..]) {
+            for j in 0..m.min(LANES) {
+                lanes.push_placed(&self.vol, n[j], f[j]);
+            }
+            return lanes.convolve::<V, K, G>(&self.vol, self.simd, o);
+        }
         let mut res = [[0.0f32; 4]; LANES];
         let mut i = 0;
         while i < m {

@@ -69,6 +69,30 @@ impl Simd {
     }
 }
 
+/// Runs `f` compiled for the widest level `simd` allows where the compiler inlines it
+/// (the ray loop's position and weight arithmetic over lanes; the same operations, no
+/// fused multiply-add, so the same bits).
+#[inline(always)]
+pub(crate) fn wide<R>(simd: Simd, f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() {
+        // SAFETY: a `Simd` of level AVX2 or above exists only where the processor and
+        // operating system support AVX2 (`Simd::detect`, `Simd::at_most`).
+        return unsafe { with_avx2(f) };
+    }
+    f()
+}
+
+/// `f()` in a function compiled with AVX2.
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
 /// The best level the processor and operating system support (1, 2 or 3).
 #[cfg(target_arch = "x86_64")]
 fn detect() -> u8 {

@@ -4,12 +4,12 @@
 //!
 //! Samples go through the convolution one at a time ([`Loop::OneSample`]: every sample
 //! from the near plane, outside ones included) or in batches ([`Loop::Batched`]: only
-//! the stretch of the ray that can be inside, [`BATCH`] samples convolved together).
+//! the stretch of the ray that can be inside, 8 or 16 samples convolved together).
 //! Both give the same bits: a batch is probed and blended in sample order, and what a
 //! batch skips changes nothing (outside samples are not counted by the probes that
 //! batch; a sample of zero opacity under `over` changes only the count).
 
-use crate::arith::{gmag, Arith, Line, Memo};
+use crate::arith::{gmag, Arith, Line, Memo, Placed};
 use crate::blend::{Accum, Blend};
 use crate::convo::ConvoSample;
 use crate::light::blinn_phong;
@@ -17,15 +17,12 @@ use crate::probe::Probe;
 use crate::render::RenderSpec;
 use crate::skip::{SkipGrid, COARSE_EMPTY, FINE_EMPTY};
 
-/// Samples convolved together by the batched loop.
-pub const BATCH: usize = 16;
-
 /// Which loop casts a ray (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Loop {
     /// Every sample from the near plane, one at a time.
     OneSample,
-    /// The stretch that can be inside, in batches of [`BATCH`].
+    /// The stretch that can be inside, in batches.
     Batched,
 }
 
@@ -81,11 +78,19 @@ struct Batch<F, const N: usize> {
 impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels).
     pub fn cast(&self, hi: u32, vi: u32, out: &mut [f32], mode: Loop, trace: Trace<'_>) {
-        match (mode, self.spec.need_grad) {
-            (Loop::OneSample, true) => self.run::<true, 1>(hi, vi, out, trace),
-            (Loop::OneSample, false) => self.run::<false, 1>(hi, vi, out, trace),
-            (Loop::Batched, true) => self.run::<true, BATCH>(hi, vi, out, trace),
-            (Loop::Batched, false) => self.run::<false, BATCH>(hi, vi, out, trace),
+        let wide = A::BATCH > 8;
+        match (mode, self.spec.need_grad, wide) {
+            (Loop::OneSample, true, _) => self.run::<true, 1>(hi, vi, out, trace),
+            (Loop::OneSample, false, _) => self.run::<false, 1>(hi, vi, out, trace),
+            (Loop::Batched, g, wide) => crate::avx::wide(self.spec.simd, {
+                #[inline(always)]
+                || match (g, wide) {
+                    (true, false) => self.run::<true, 8>(hi, vi, out, trace),
+                    (false, false) => self.run::<false, 8>(hi, vi, out, trace),
+                    (true, true) => self.run::<true, 16>(hi, vi, out, trace),
+                    (false, true) => self.run::<false, 16>(hi, vi, out, trace),
+                }
+            }),
         }
     }
 
@@ -109,13 +114,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
         let kend = if sp.once { 1 } else { sp.kmax + 1 };
-        let (k0, k1) = if N > 1 && !everywhere {
+        // With an exact span every sample of [k0, k1) is inside and before the far plane.
+        let (k0, k1, exact) = if N > 1 && !everywhere {
             match self.a.span(&ray, kend) {
                 Some(s) => s,
                 None => return st.acc.finish(p.outside, out),
             }
         } else {
-            (0, kend)
+            (0, kend, false)
         };
         let skip = self.skip.filter(|_| over && p.probe.is_colour());
         let tracing = st.trace.is_some();
@@ -125,83 +131,92 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         // Runs of consecutive samples with positions computed alongside the sums (an
         // exact span, nothing to skip).
-        let runs = A::EXACT_SPAN && N > 1 && !over && !everywhere && !tracing;
+        let runs = exact && !over && !tracing;
         let mut b = Batch::<A::Frac, N> {
             n: [[0; 3]; N],
             f: [A::Frac::default(); N],
             k: [0; N],
             m: 0,
         };
+        let mut pb = Placed::<A::Frac, N>::default();
         let mut k = k0;
-        let mut ended = false;
-        while k < k1 && !ended {
+        'ray: while k < k1 {
             if runs && b.m == 0 && k1 - k >= N as u32 {
                 let mut res = [[0.0f32; 4]; N];
                 if self.a.convolve_run::<G, N>(&ray, k, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
-                    ended = self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res);
+                    if self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res) {
+                        return st.acc.finish(p.outside, out);
+                    }
                     k += N as u32;
                     continue;
                 }
             }
-            if k > 0 && self.a.past(&ray, k) {
-                break;
+            // The next samples' placements, then each in order.
+            let cnt = (k1 - k).min(N as u32);
+            if !everywhere {
+                self.a
+                    .place_block::<N>(&ray, k, exact && cnt == N as u32, &mut pb);
             }
-            if everywhere {
-                ended = self.everywhere(&ray, k, &mut st);
-                k += 1;
-                continue;
-            }
-            let Some((n, f)) = self.a.place(&ray, k) else {
-                if tracing {
-                    if self.flush::<G, N>(&ray, &mut st, &mut b) {
+            for (l, kk) in (k..k + cnt).enumerate() {
+                let past = if everywhere {
+                    kk > 0 && self.a.past(&ray, kk)
+                } else {
+                    kk > 0 && pb.past[l]
+                };
+                if past {
+                    break 'ray;
+                }
+                if everywhere {
+                    if self.everywhere(&ray, kk, &mut st) {
                         return st.acc.finish(p.outside, out);
                     }
-                    self.emit(&ray, k, &mut st, None, [0.0; 4], false);
+                    continue;
                 }
-                k += 1;
-                continue;
-            };
-            if let Some(sk) = skip {
-                let flags = sk.flags_at(n);
-                if flags & FINE_EMPTY != 0 {
-                    // Inside with opacity 0: blending changes only the count. With the
-                    // coarse flag, every sample up to `last` is too.
-                    let last = match line {
-                        Some(l) if flags & COARSE_EMPTY != 0 => {
-                            let j = self.box_run_end(&l, sk.empty_box(n), k, k1);
-                            if j > k && self.a.past(&ray, j) {
-                                k
-                            } else {
-                                j
-                            }
-                        }
-                        _ => k,
-                    };
+                if !pb.inside[l] {
                     if tracing {
                         if self.flush::<G, N>(&ray, &mut st, &mut b) {
                             return st.acc.finish(p.outside, out);
                         }
-                        A::blend(&mut st.acc, &mut st.transp, &[0.0; 4]);
-                        let cs = [0.0; 4];
-                        self.emit(&ray, k, &mut st, Some(cs), [0.0; 4], true);
-                    } else {
-                        st.acc.add_transparent(last - k + 1);
+                        self.emit(&ray, kk, &mut st, None, [0.0; 4], false);
                     }
-                    k = last + 1;
                     continue;
                 }
+                let n = pb.n[l];
+                if let Some(sk) = skip {
+                    let flags = sk.flags_at(n);
+                    if flags & FINE_EMPTY != 0 {
+                        // Inside with opacity 0: blending changes only the count. With
+                        // the coarse flag, every sample up to `last` is too.
+                        if tracing {
+                            if self.flush::<G, N>(&ray, &mut st, &mut b) {
+                                return st.acc.finish(p.outside, out);
+                            }
+                            A::blend(&mut st.acc, &mut st.transp, &[0.0; 4]);
+                            self.emit(&ray, kk, &mut st, Some([0.0; 4]), [0.0; 4], true);
+                            continue;
+                        }
+                        if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
+                            let j = self.box_run_end(&l, sk.empty_box(n), kk, k1);
+                            if j > kk + 1 && !self.a.past(&ray, j) {
+                                st.acc.add_transparent(j - kk + 1);
+                                k = j + 1;
+                                continue 'ray;
+                            }
+                        }
+                        st.acc.add_transparent(1);
+                        continue;
+                    }
+                }
+                (b.n[b.m], b.f[b.m], b.k[b.m]) = (n, pb.f[l], kk);
+                b.m += 1;
+                if b.m == N && self.flush::<G, N>(&ray, &mut st, &mut b) {
+                    return st.acc.finish(p.outside, out);
+                }
             }
-            (b.n[b.m], b.f[b.m], b.k[b.m]) = (n, f, k);
-            b.m += 1;
-            k += 1;
-            if b.m == N {
-                ended = self.flush::<G, N>(&ray, &mut st, &mut b);
-            }
+            k += cnt;
         }
-        if !ended {
-            self.flush::<G, N>(&ray, &mut st, &mut b);
-        }
+        self.flush::<G, N>(&ray, &mut st, &mut b);
         st.acc.finish(p.outside, out);
     }
 
@@ -226,16 +241,27 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             (G, sp.params.blend, sp.levoy, sp.lut, st.trace.is_some())
         {
             self.a.convolve::<false, N>(&b.n, &b.f, m, &mut res);
+            // The samples that are not transparent, convolved again with the gradient.
+            let mut keep = [0usize; N];
+            let mut nk = 0;
             for i in 0..m {
-                if self.lut_alpha(ray, lut.index(res[i][0] as f64), &mut st.memo) == 0.0 {
-                    st.acc.add_transparent(1);
-                    continue;
+                if self.lut_alpha(ray, lut.index(res[i][0] as f64), &mut st.memo) != 0.0 {
+                    (b.n[nk], b.f[nk], b.k[nk], keep[nk]) = (b.n[i], b.f[i], b.k[i], i);
+                    nk += 1;
                 }
-                let mut one = [[0.0f32; 4]; 1];
-                self.a
-                    .convolve::<true, 1>(&[b.n[i]], &[b.f[i]], 1, &mut one);
-                if self.take::<G>(ray, st, b.k[i], one[0]) {
-                    return true;
+            }
+            if nk > 0 {
+                self.a.convolve::<true, N>(&b.n, &b.f, nk, &mut res);
+            }
+            let mut j = 0;
+            for i in 0..m {
+                if j < nk && keep[j] == i {
+                    if self.take::<G>(ray, st, b.k[j], res[j]) {
+                        return true;
+                    }
+                    j += 1;
+                } else {
+                    st.acc.add_transparent(1);
                 }
             }
             return false;

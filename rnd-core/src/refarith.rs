@@ -210,8 +210,8 @@ impl RefCamera {
 /// World-to-index in f32: the cofactor inverse of the f32 index-to-world matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefIndex {
-    m: [[f32; 3]; 3],
-    t: V3,
+    pub(crate) m: [[f32; 3]; 3],
+    pub(crate) t: V3,
 }
 
 impl RefIndex {
