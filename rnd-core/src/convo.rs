@@ -494,18 +494,21 @@ pub(crate) mod sse {
     /// Zero in all lanes.
     #[inline(always)]
     pub(crate) fn zero() -> __m128 {
+        // SAFETY: SSE is x86_64 baseline.
         unsafe { _mm_setzero_ps() }
     }
 
     /// Four f32 as lanes.
     #[inline(always)]
     pub(crate) fn load(x: &[f32; 4]) -> __m128 {
+        // SAFETY: SSE/SSE2 are x86_64 baseline; the load reads the 4 floats of `x`.
         unsafe { _mm_loadu_ps(x.as_ptr()) }
     }
 
     /// [`crate::kernel::horner4`] in one vector, lane for lane the same operations.
     #[inline(always)]
     pub(crate) fn horner(co: &[[f32; 4]; 4], a: f32) -> __m128 {
+        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
         unsafe {
             let a = _mm_set1_ps(a);
             let t = _mm_add_ps(_mm_mul_ps(load(&co[3]), a), load(&co[2]));
@@ -517,6 +520,7 @@ pub(crate) mod sse {
     /// Lane `i` of `v` in every lane.
     #[inline(always)]
     fn lane(v: __m128, i: usize) -> __m128 {
+        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
         unsafe {
             match i {
                 0 => _mm_shuffle_ps::<0x00>(v, v),
@@ -533,6 +537,7 @@ pub(crate) mod sse {
     #[inline(always)]
     pub(crate) fn world_gmag4(m: &[[f32; 3]; 3], r: &[[f32; 4]; 4]) -> [f32; 4] {
         let mut out = [0.0f32; 4];
+        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
         unsafe {
             let (a, b, c, d) = (load(&r[0]), load(&r[1]), load(&r[2]), load(&r[3]));
             let t0 = _mm_unpacklo_ps(a, b);
@@ -572,6 +577,7 @@ pub(crate) mod sse {
         let [wx, wy, wz] = w;
         let [dx, dy, dz] = d;
         let mut out = [0.0f32; 4];
+        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
         unsafe {
             let [a, b] = rows;
             // Along z: lanes [p_0, p_1] (j = 0) and [p_0, p_1] (j = 1).
@@ -622,6 +628,7 @@ pub(crate) mod sse {
         d: &[__m128; 3],
     ) -> [f32; 4] {
         let mut out = [0.0f32; 4];
+        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
         unsafe {
             let (mut acc, mut accy, mut accz) = (zero(), zero(), zero());
             for j in 0..4 {

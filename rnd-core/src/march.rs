@@ -1,4 +1,4 @@
-//! The one ray-marching loop, generic over the arithmetic ([`crate::arith`]): the
+//! The one ray-marching loop, generic over the arithmetic (`arith`): the
 //! ray's span, batching, empty-space skipping, probing, shading, blending in order,
 //! early ray termination and the `-db` trace are written here once.
 //!

@@ -27,8 +27,8 @@
 //!   (L + V)·(1/|L + V|) with V = −s·(1/|s|) for the world step s; `over` keeps the
 //!   transparency T: C += T·α·rgb, T ·= 1 − α, and the pixel is C/(1 − T), 1 − T.
 //!
-//! [`inside_span`] bounds the samples of a ray that can be inside the volume; [`Block`]
-//! and [`Lanes`] run sixteen samples side by side, each lane doing exactly the
+//! [`inside_span`] bounds the samples of a ray that can be inside the volume; the ray
+//! loop places sixteen samples side by side and [`Lanes`] convolves them, each lane doing exactly the
 //! one-sample operations. The running sums still cost about 9 multiplies and 4 adds per
 //! support sample (the f64 engine, `-ref false`, sums separably and is quicker).
 
@@ -351,13 +351,13 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
 pub const MAX_AXIS: usize = (1 << 24) - 1;
 
 /// A range of sample numbers `first ..= last` (within `0 ..= kmax`) outside which no
-/// sample of `ray` is inside `vol` for a kernel of support `S`, as [`Block::new`]
-/// decides it in f32; `None` when no sample can be inside. Found once per ray in f64
+/// sample of `ray` is inside `vol` for a kernel of support `S`, as the reference
+/// arithmetic decides it in f32 ([`place3`] of the sample's index position); `None` when no sample can be inside. Found once per ray in f64
 /// from the same f32 parameters, widened by a bound on the f32 rounding error, so the
 /// samples it leaves out are provably outside (a batched loop may start and stop there
 /// with the same bits).
 ///
-/// The bound: [`Block::new`] computes the view position (2 roundings), the world
+/// The bound: the arithmetic computes the view position (2 roundings), the world
 /// position (4 products and sums) and the index position (4 more), then adds 0.5 for
 /// odd supports. With unit roundoff u = 2^-24 each result is off the exact value of the
 /// same formula by at most about 11 u times the sum of the magnitudes of its terms; 16 u

@@ -1,6 +1,6 @@
 //! Rendering: the validated, immutable [`RenderSpec`], the run-time → compile-time
 //! dispatch on (voxel type, kernel), and the entry points that cast rays with the one
-//! loop of [`crate::march`] in the arithmetic the spec names ([`crate::arith`]).
+//! loop of [`crate::march`] in the arithmetic the spec names (`arith`).
 
 use alloc::vec::Vec;
 
