@@ -422,14 +422,7 @@ impl<'a> RenderSpec<'a> {
                 self.params.unit_step as f32,
                 self.kmax,
             );
-            f(&March {
-                spec: self,
-                a,
-                skip,
-                sizes,
-                support: S,
-                lo: K::LO,
-            })
+            f(&march::<_, K, S>(self, a, skip, sizes))
         } else {
             let a = F64::<V, K, S>::new(
                 vol,
@@ -439,14 +432,7 @@ impl<'a> RenderSpec<'a> {
                 self.params.unit_step,
                 &self.ln_transparency,
             );
-            f(&March {
-                spec: self,
-                a,
-                skip,
-                sizes,
-                support: S,
-                lo: K::LO,
-            })
+            f(&march::<_, K, S>(self, a, skip, sizes))
         }
     }
 
@@ -498,6 +484,23 @@ impl<'a> RenderSpec<'a> {
                 }
             }
         });
+    }
+}
+
+/// The loop of `spec` over a volume of `sizes` in arithmetic `a` with kernel `K`.
+fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
+    spec: &'s RenderSpec<'a>,
+    a: A,
+    skip: Option<&'s SkipGrid>,
+    sizes: [usize; 3],
+) -> March<'s, 'a, A> {
+    March {
+        spec,
+        a,
+        skip,
+        sizes,
+        support: S,
+        lo: K::LO,
     }
 }
 
