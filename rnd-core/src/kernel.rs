@@ -494,107 +494,86 @@ impl Kernel<6> for C4Hexic {
     }
 }
 
-/// Run-time kernel names (the `-k` option). Parsed case-insensitively.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum KernelName {
-    /// [`Zero`]
-    Zero,
-    /// [`BoxK`]
-    Box,
-    /// [`Tent`]
-    Tent,
-    /// [`Bspln2`]
-    Bspln2,
-    /// [`Bspln3`]
-    Bspln3,
-    /// [`Ctmr`]
-    Ctmr,
-    /// [`C4Hexic`]
-    C4hexic,
+/// Work to run with a kernel type known at compile time; see [`KernelName::with`].
+pub trait KernelTask {
+    /// What the task returns.
+    type Output;
+    /// Runs with kernel `K` of support `S`.
+    fn run<K: Kernel<S>, const S: usize>(self) -> Self::Output;
+}
+
+/// The one table of kernels: each entry gives the run-time name's variant, the type
+/// (with its formulas and [`Kernel`] impl above), the support, the `-k` name, the
+/// display name and the `klist` description. Everything that goes from a name to a
+/// kernel is generated from it; a new kernel is one entry plus its formulas.
+macro_rules! kernel_table {
+    ($($var:ident => $ty:ident, $s:literal, $name:literal, $title:literal, $desc:literal;)*) => {
+        /// Run-time kernel names (the `-k` option). Parsed case-insensitively.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum KernelName {
+            $(#[doc = concat!("[`", stringify!($ty), "`]: ", $desc)] $var,)*
+        }
+
+        impl KernelName {
+            /// Every kernel, in `klist` order.
+            pub const ALL: [KernelName; [$(stringify!($var)),*].len()] = [$(KernelName::$var),*];
+
+            /// Canonical lower-case name (what `-k` accepts).
+            pub fn as_str(self) -> &'static str {
+                match self { $(KernelName::$var => $name,)* }
+            }
+
+            /// Display name with a capital, as `klist`/`keval` print it (`Bspln3`).
+            pub fn title(self) -> &'static str {
+                match self { $(KernelName::$var => $title,)* }
+            }
+
+            /// Support (samples per axis).
+            pub fn support(self) -> usize {
+                match self { $(KernelName::$var => $s,)* }
+            }
+
+            /// One-line description for `klist`.
+            pub fn description(self) -> &'static str {
+                match self { $(KernelName::$var => $desc,)* }
+            }
+
+            /// Runs `task` with this kernel's type: the one run-time → compile-time
+            /// switch on the kernel.
+            pub fn with<T: KernelTask>(self, task: T) -> T::Output {
+                match self { $(KernelName::$var => task.run::<$ty, $s>(),)* }
+            }
+        }
+    };
+}
+
+kernel_table! {
+    Zero => Zero, 1, "zero", "Zero", "always zero (its own derivative)";
+    Box => BoxK, 1, "box", "Box", "nearest neighbour: 1 on [-0.5, 0.5), else 0";
+    Tent => Tent, 2, "tent", "Tent", "linear interpolation";
+    Bspln2 => Bspln2, 3, "bspln2", "Bspln2", "quadratic B-spline, C1, approximating";
+    Bspln3 => Bspln3, 4, "bspln3", "Bspln3", "cubic B-spline, C2, approximating";
+    Ctmr => Ctmr, 4, "ctmr", "Ctmr", "Catmull-Rom cubic spline, C1, interpolating";
+    C4hexic => C4Hexic, 6, "c4hexic", "C4hexic", "C4 hexic (Teem), C4, reproduces quadratics approximately";
 }
 
 impl KernelName {
-    /// Every kernel, in `klist` order.
-    pub const ALL: [KernelName; 7] = [
-        KernelName::Zero,
-        KernelName::Box,
-        KernelName::Tent,
-        KernelName::Bspln2,
-        KernelName::Bspln3,
-        KernelName::Ctmr,
-        KernelName::C4hexic,
-    ];
-
-    /// Canonical lower-case name (what `-k` accepts).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            KernelName::Zero => "zero",
-            KernelName::Box => "box",
-            KernelName::Tent => "tent",
-            KernelName::Bspln2 => "bspln2",
-            KernelName::Bspln3 => "bspln3",
-            KernelName::Ctmr => "ctmr",
-            KernelName::C4hexic => "c4hexic",
-        }
-    }
-
-    /// Display name with a capital, as `klist`/`keval` print it (`Bspln3`).
-    pub fn title(self) -> &'static str {
-        match self {
-            KernelName::Zero => "Zero",
-            KernelName::Box => "Box",
-            KernelName::Tent => "Tent",
-            KernelName::Bspln2 => "Bspln2",
-            KernelName::Bspln3 => "Bspln3",
-            KernelName::Ctmr => "Ctmr",
-            KernelName::C4hexic => "C4hexic",
-        }
-    }
-
-    /// Support (samples per axis).
-    pub fn support(self) -> usize {
-        match self {
-            KernelName::Zero | KernelName::Box => 1,
-            KernelName::Tent => 2,
-            KernelName::Bspln2 => 3,
-            KernelName::Bspln3 | KernelName::Ctmr => 4,
-            KernelName::C4hexic => 6,
-        }
-    }
-
-    /// One-line description for `klist`.
-    pub fn description(self) -> &'static str {
-        match self {
-            KernelName::Zero => "always zero (its own derivative)",
-            KernelName::Box => "nearest neighbour: 1 on [-0.5, 0.5), else 0",
-            KernelName::Tent => "linear interpolation",
-            KernelName::Bspln2 => "quadratic B-spline, C1, approximating",
-            KernelName::Bspln3 => "cubic B-spline, C2, approximating",
-            KernelName::Ctmr => "Catmull-Rom cubic spline, C1, interpolating",
-            KernelName::C4hexic => "C4 hexic (Teem), C4, reproduces quadratics approximately",
-        }
-    }
-
     /// Evaluates derivative `deriv` (0, 1 or 2) at `x` in f64; higher derivatives are 0
     /// only for kernels whose second derivative is piecewise constant, so callers limit
     /// `deriv` to 0..=2.
     pub fn eval(self, x: f64, deriv: u32) -> f64 {
-        fn go<K: Kernel<S>, const S: usize>(x: f64, d: u32) -> f64 {
-            match d {
-                0 => K::k(x),
-                1 => K::d1(x),
-                _ => K::d2(x),
+        struct Eval(f64, u32);
+        impl KernelTask for Eval {
+            type Output = f64;
+            fn run<K: Kernel<S>, const S: usize>(self) -> f64 {
+                match self.1 {
+                    0 => K::k(self.0),
+                    1 => K::d1(self.0),
+                    _ => K::d2(self.0),
+                }
             }
         }
-        match self {
-            KernelName::Zero => go::<Zero, 1>(x, deriv),
-            KernelName::Box => go::<BoxK, 1>(x, deriv),
-            KernelName::Tent => go::<Tent, 2>(x, deriv),
-            KernelName::Bspln2 => go::<Bspln2, 3>(x, deriv),
-            KernelName::Bspln3 => go::<Bspln3, 4>(x, deriv),
-            KernelName::Ctmr => go::<Ctmr, 4>(x, deriv),
-            KernelName::C4hexic => go::<C4Hexic, 6>(x, deriv),
-        }
+        self.with(Eval(x, deriv))
     }
 
     /// Offset of the lowest sample for this support (see [`Kernel::LO`]).
@@ -621,11 +600,11 @@ impl FromStr for KernelName {
             .into_iter()
             .find(|k| k.as_str().eq_ignore_ascii_case(s))
             .ok_or_else(|| {
+                let known: alloc::vec::Vec<&str> =
+                    KernelName::ALL.iter().map(|k| k.as_str()).collect();
                 Error::new(
                     ErrorKind::Name,
-                    alloc::format!(
-                    "unknown kernel \"{s}\" (known: zero, box, tent, bspln2, bspln3, ctmr, c4hexic)"
-                ),
+                    alloc::format!("unknown kernel \"{s}\" (known: {})", known.join(", ")),
                 )
             })
     }
@@ -749,6 +728,28 @@ mod tests {
         check::<Tent, 2>();
         check::<Bspln3, 4>();
         check::<Ctmr, 4>();
+    }
+
+    /// Each table entry's type is the kernel of that name, with the entry's support and
+    /// first offset.
+    #[test]
+    fn table_entries_agree_with_their_types() {
+        struct Check(KernelName);
+        impl KernelTask for Check {
+            type Output = ();
+            fn run<K: Kernel<S>, const S: usize>(self) {
+                assert_eq!(K::NAME, self.0);
+                assert_eq!(S, self.0.support());
+                assert_eq!(K::LO, self.0.lo());
+            }
+        }
+        for k in KernelName::ALL {
+            k.with(Check(k));
+        }
+        assert_eq!(
+            "nope".parse::<KernelName>().unwrap_err().msg,
+            "unknown kernel \"nope\" (known: zero, box, tent, bspln2, bspln3, ctmr, c4hexic)"
+        );
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::avx::{Simd, SimdLevel};
 use crate::blend::Blend;
 use crate::camera::{Camera, CameraSpec};
 use crate::error::{Error, ErrorKind, Result};
-use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, KernelName, Tent, Zero};
+use crate::kernel::{Kernel, KernelName, KernelTask};
 use crate::light::{Light, Phong, WorldLights};
 use crate::march::{Loop, March, Trace};
 use crate::probe::Probe;
@@ -544,23 +544,17 @@ pub trait ConvoTask {
 
 /// The one run-time dispatch point: (voxel type, kernel name) → monomorphized code.
 pub fn dispatch<T: ConvoTask>(vol: AnyVolume<'_>, kernel: KernelName, task: T) -> T::Output {
-    macro_rules! by_kernel {
-        ($v:expr) => {
-            match kernel {
-                KernelName::Zero => task.run::<_, Zero, 1>($v),
-                KernelName::Box => task.run::<_, BoxK, 1>($v),
-                KernelName::Tent => task.run::<_, Tent, 2>($v),
-                KernelName::Bspln2 => task.run::<_, Bspln2, 3>($v),
-                KernelName::Bspln3 => task.run::<_, Bspln3, 4>($v),
-                KernelName::Ctmr => task.run::<_, Ctmr, 4>($v),
-                KernelName::C4hexic => task.run::<_, C4Hexic, 6>($v),
+    struct WithKernel<'v, T>(AnyVolume<'v>, T);
+    impl<T: ConvoTask> KernelTask for WithKernel<'_, T> {
+        type Output = T::Output;
+        fn run<K: Kernel<S>, const S: usize>(self) -> T::Output {
+            match self.0 {
+                AnyVolume::F32(v) => self.1.run::<_, K, S>(v),
+                AnyVolume::I16(v) => self.1.run::<_, K, S>(v),
             }
-        };
+        }
     }
-    match vol {
-        AnyVolume::F32(v) => by_kernel!(v),
-        AnyVolume::I16(v) => by_kernel!(v),
-    }
+    kernel.with(WithKernel(vol, task))
 }
 
 /// Renders the whole image on the calling thread into a new buffer (W·H·channels floats,
