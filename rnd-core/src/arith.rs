@@ -88,18 +88,10 @@ pub(crate) trait Arith {
         &self,
         ray: &Self::Ray,
         k0: u32,
-        exact: bool,
+        _exact: bool,
         out: &mut Placed<Self::Frac, N>,
     ) {
-        let _ = exact;
-        for l in 0..N {
-            let k = k0 + l as u32;
-            out.past[l] = self.past(ray, k);
-            match self.place(ray, k) {
-                Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
-                None => out.inside[l] = false,
-            }
-        }
+        place_each(self, ray, k0, out);
     }
     /// View, world and index position of sample k (for position probes and the trace).
     fn positions(&self, ray: &Self::Ray, k: u32) -> [[f64; 3]; 3];
@@ -142,6 +134,24 @@ pub(crate) trait Arith {
     /// Blends a counted probe (`over`: rgb and corrected α; `transp` is the running
     /// transparency, kept by strategies that composite on it).
     fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]);
+}
+
+/// [`Arith::place`] and [`Arith::past`] of the `N` samples from `k0`, one by one.
+#[inline(always)]
+fn place_each<A: Arith + ?Sized, const N: usize>(
+    a: &A,
+    ray: &A::Ray,
+    k0: u32,
+    out: &mut Placed<A::Frac, N>,
+) {
+    for l in 0..N {
+        let k = k0 + l as u32;
+        out.past[l] = a.past(ray, k);
+        match a.place(ray, k) {
+            Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
+            None => out.inside[l] = false,
+        }
+    }
 }
 
 /// |g| in f32, the one formula of both arithmetics.
@@ -287,18 +297,13 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         exact: bool,
         out: &mut Placed<[f64; 3], N>,
     ) {
+        if !exact {
+            return place_each(self, ray, k0, out);
+        }
         for l in 0..N {
             let k = k0 + l as u32;
-            if exact {
-                (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
-                (out.inside[l], out.past[l]) = (true, false);
-                continue;
-            }
-            out.past[l] = self.past(ray, k);
-            match self.place(ray, k) {
-                Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
-                None => out.inside[l] = false,
-            }
+            (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
+            (out.inside[l], out.past[l]) = (true, false);
         }
     }
     fn positions(&self, ray: &F64Ray, k: u32) -> [[f64; 3]; 3] {
@@ -404,8 +409,6 @@ pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     pub wtoi: RefIndex,
     pub plane_sep: f32,
     pub unit_step: f32,
-    /// Sample numbers beyond this are past the far plane on every ray.
-    pub kmax: u32,
     _k: core::marker::PhantomData<K>,
 }
 
@@ -416,7 +419,6 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         cam: &'r RefCamera,
         plane_sep: f32,
         unit_step: f32,
-        kmax: u32,
     ) -> Self {
         Reference {
             wtoi: RefIndex::new(vol.itow()),
@@ -425,7 +427,6 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
             cam,
             plane_sep,
             unit_step,
-            kmax,
             _k: core::marker::PhantomData,
         }
     }
@@ -521,7 +522,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         (-Self::view(ray, k)[2] - cam.ncv) / (cam.fcv - cam.ncv)
     }
     fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32, bool)> {
-        let kmax = kend.saturating_sub(1).min(self.kmax);
+        let kmax = kend.saturating_sub(1);
         refarith::inside_span::<V, K, S>(self.cam, ray, &self.wtoi, &self.vol, kmax)
             .map(|(a, b)| (a, b + 1, false))
     }

@@ -38,9 +38,6 @@ impl Simd {
         Simd(level.min(Simd::detect().0))
     }
 
-    /// The baseline (always supported).
-    pub const BASELINE: Simd = Simd(SimdLevel::Baseline);
-
     /// The level.
     pub fn level(self) -> SimdLevel {
         self.0

@@ -4,7 +4,7 @@
 
 use alloc::vec::Vec;
 
-use crate::arith::{correct_alpha, ln_transparency, RayGeom, Reference, F64};
+use crate::arith::{correct_alpha, ln_transparency, Reference, F64};
 use crate::avx::{Simd, SimdLevel};
 use crate::blend::Blend;
 use crate::camera::{Camera, CameraSpec};
@@ -19,6 +19,7 @@ use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
+pub use crate::arith::RayGeom;
 pub use crate::march::SampleInfo;
 
 /// Most samples one ray may take ((fcv − ncv) / plane separation).
@@ -420,7 +421,6 @@ impl<'a> RenderSpec<'a> {
                 &self.ref_cam,
                 self.plane_sep() as f32,
                 self.params.unit_step as f32,
-                self.kmax,
             );
             f(&march::<_, K, S>(self, a, skip, sizes))
         } else {
