@@ -135,12 +135,22 @@ impl Accum {
         self.count += xs.len() as u32;
     }
 
-    /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
-    /// [`Accum::add`] of `[0.0; 4]` does `n` times).
+    /// Blends `n` samples that change nothing but the count: opacity 0 under `over`
+    /// (what [`Accum::add`] of `[0.0; 4]` does `n` times), or, under `max` after a
+    /// first sample, values that [`Accum::below_max`] admits.
     #[inline(always)]
-    pub fn add_transparent(&mut self, n: u32) {
-        debug_assert_eq!(self.blend, Blend::Over);
+    pub fn add_unchanged(&mut self, n: u32) {
+        debug_assert!(self.blend == Blend::Over || self.count > 0);
         self.count += n;
+    }
+
+    /// Whether every one-channel sample of value at most `bound` leaves this `max`
+    /// blend's bits as they are: after a first sample, below the maximum or equal to a
+    /// non-zero one (f32 `max` of +0 and −0 may give either).
+    #[inline(always)]
+    pub fn below_max(&self, bound: f32) -> bool {
+        let m = self.acc[0];
+        self.count > 0 && (bound < m || (bound <= m && m != 0.0))
     }
 
     /// Opacity so far (`over` only).

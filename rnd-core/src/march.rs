@@ -9,13 +9,15 @@
 //! batch skips changes nothing (outside samples are not counted by the probes that
 //! batch; a sample of zero opacity under `over` changes only the count).
 
+use core::cell::Cell;
+
 use crate::arith::{gmag, Arith, Line, Memo, Placed};
 use crate::blend::{Accum, Blend};
 use crate::convo::ConvoSample;
 use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
-use crate::skip::{SkipGrid, COARSE_EMPTY, FINE_EMPTY};
+use crate::skip::{SkipGrid, SkipKind, COARSE_EMPTY, FINE_EMPTY};
 
 /// Which loop casts a ray (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -57,6 +59,9 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     pub sizes: [usize; 3],
     pub support: usize,
     pub lo: i32,
+    /// Under `max` with bounds: the sample number where the last ray cast found its
+    /// maximum (a good first guess for the next ray's; results never depend on it).
+    pub hint: Cell<Option<u32>>,
 }
 
 /// One ray's running state.
@@ -65,6 +70,13 @@ struct State<'t> {
     transp: f32,
     memo: Memo,
     trace: Trace<'t>,
+    /// Under `max` with bounds: a value that one of the ray's samples reaches, so a
+    /// sample bounded strictly below it cannot be the maximum; the number of samples
+    /// counted unconvolved (added to the count at the end, so that the first blended
+    /// sample still starts the maximum); the sample number of the running maximum.
+    floor: f32,
+    unseen: u32,
+    best: Option<u32>,
 }
 
 /// Samples placed for the convolution, in ray order.
@@ -110,6 +122,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             transp: 1.0,
             memo: None,
             trace,
+            floor: f32::NEG_INFINITY,
+            unseen: 0,
+            best: None,
         };
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
@@ -123,15 +138,23 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         } else {
             (0, kend, false)
         };
-        let skip = self.skip.filter(|_| over && p.probe.is_colour());
         let tracing = st.trace.is_some();
-        let line = match skip {
+        let (skip, below) = match self.skip {
+            Some(g) if g.kind() == SkipKind::Opacity => (Some(g), None),
+            // A trace sees every sample's value.
+            Some(g) if !tracing => (None, Some(g)),
+            _ => (None, None),
+        };
+        let line = match skip.or(below) {
             Some(_) if !tracing => self.a.line(&ray, k1),
             _ => None,
         };
         // Runs of consecutive samples with positions computed alongside the sums (an
         // exact span, nothing to skip).
-        let runs = exact && !over && !tracing;
+        let runs = exact && !over && !tracing && below.is_none();
+        if below.is_some() {
+            st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
+        }
         let mut b = Batch::<A::Frac, N> {
             n: [[0; 3]; N],
             f: [A::Frac::default(); N],
@@ -183,6 +206,26 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     continue;
                 }
                 let n = pb.n[l];
+                if let Some(g) = below {
+                    // Under `max`: a sample whose block bounds it below the floor, or by
+                    // the running maximum (which only grows while a batch waits), is
+                    // counted unconvolved, and with its coarse block's bound, every
+                    // sample up to the box's end.
+                    let (fine, coarse) = g.bounds_at(n);
+                    let under = |b: f32| b < st.floor || st.acc.below_max(b);
+                    if under(fine) {
+                        if let (Some(l), true) = (line, under(coarse)) {
+                            let j = self.box_run_end(&l, SkipGrid::coarse_box(n), kk, k1);
+                            if j > kk + 1 && !self.a.past(&ray, j) {
+                                st.unseen += j - kk + 1;
+                                k = j + 1;
+                                continue 'ray;
+                            }
+                        }
+                        st.unseen += 1;
+                        continue;
+                    }
+                }
                 if let Some(sk) = skip {
                     let flags = sk.flags_at(n);
                     if flags & FINE_EMPTY != 0 {
@@ -199,12 +242,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
                             let j = self.box_run_end(&l, sk.empty_box(n), kk, k1);
                             if j > kk + 1 && !self.a.past(&ray, j) {
-                                st.acc.add_transparent(j - kk + 1);
+                                st.acc.add_unchanged(j - kk + 1);
                                 k = j + 1;
                                 continue 'ray;
                             }
                         }
-                        st.acc.add_transparent(1);
+                        st.acc.add_unchanged(1);
                         continue;
                     }
                 }
@@ -217,7 +260,35 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             k += cnt;
         }
         self.flush::<G, N>(&ray, &mut st, &mut b);
+        if below.is_some() {
+            self.hint.set(st.best);
+            st.acc.count += st.unseen;
+        }
         st.acc.finish(p.outside, out);
+    }
+
+    /// The value of the maximized quantity (`v` or `gm`) at sample `k` of the ray, when
+    /// it is one of the ray's blended samples in `[k0, k1)` and not NaN; −∞ otherwise.
+    /// Convolved as the loop convolves it, so the same bits.
+    fn floor<const G: bool>(&self, ray: &A::Ray, k: Option<u32>, k0: u32, k1: u32) -> f32 {
+        let Some(k) = k.filter(|&k| k0 <= k && k < k1 && !(k > 0 && self.a.past(ray, k))) else {
+            return f32::NEG_INFINITY;
+        };
+        let Some((n, f)) = self.a.place(ray, k) else {
+            return f32::NEG_INFINITY;
+        };
+        let mut res = [[0.0f32; 4]; 1];
+        self.a.convolve::<G, 1>(&[n], &[f], 1, &mut res);
+        let x = match self.spec.params.probe {
+            Probe::GradMag if G => self.a.gmags(&res)[0],
+            Probe::Value => res[0][0],
+            _ => f32::NAN,
+        };
+        if x.is_nan() {
+            f32::NEG_INFINITY
+        } else {
+            x
+        }
     }
 
     /// Convolves the batch, then probes and blends it in order; true when the ray ends.
@@ -261,7 +332,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     }
                     j += 1;
                 } else {
-                    st.acc.add_transparent(1);
+                    st.acc.add_unchanged(1);
                 }
             }
             return false;
@@ -290,7 +361,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 _ => None,
             };
             if let Some(xs) = xs {
+                let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
                 st.acc.add_scalars(&xs[..m]);
+                let now = st.acc.acc[0];
+                if p.blend == Blend::Max && (!had || now.to_bits() != before.to_bits()) {
+                    if let Some(i) = xs[..m].iter().position(|x| x.to_bits() == now.to_bits()) {
+                        st.best = Some(ks[i]);
+                    }
+                }
                 return false;
             }
         }

@@ -14,7 +14,7 @@ use crate::light::{Light, Phong, WorldLights};
 use crate::march::{Loop, March, Trace};
 use crate::probe::Probe;
 use crate::refarith::{self, RefCamera};
-use crate::skip::{SkipGrid, SkipPlan};
+use crate::skip::{SkipGrid, SkipKind, SkipPlan};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -358,8 +358,21 @@ impl<'a> RenderSpec<'a> {
         Ok(())
     }
 
-    /// The empty-space-skipping grid for `vol`, when it applies (an `over` render of a
-    /// colour probe with `params.skip_empty`).
+    /// What a skip grid records for this render, when one applies (`params.skip_empty`
+    /// and an `over` render of a colour probe with a LUT, or a `max` render of the
+    /// value or the gradient magnitude).
+    pub fn skip_kind(&self) -> Option<SkipKind> {
+        let p = &self.params;
+        match (p.skip_empty, p.blend, p.probe) {
+            (false, _, _) => None,
+            (_, Blend::Over, pr) if pr.is_colour() && self.lut.is_some() => Some(SkipKind::Opacity),
+            (_, Blend::Max, Probe::Value) => Some(SkipKind::MaxValue),
+            (_, Blend::Max, Probe::GradMag) => Some(SkipKind::MaxGradMag),
+            _ => None,
+        }
+    }
+
+    /// The skip grid for `vol`, when one applies (see [`RenderSpec::skip_kind`]).
     pub fn skip_grid<V: Voxel>(&self, vol: &Volume<'_, V>, kernel: KernelName) -> Option<SkipGrid> {
         self.skip_plan(vol, kernel).map(|plan| plan.build(vol))
     }
@@ -371,12 +384,9 @@ impl<'a> RenderSpec<'a> {
         vol: &Volume<'_, V>,
         kernel: KernelName,
     ) -> Option<SkipPlan<'a>> {
-        let p = &self.params;
-        match self.lut {
-            Some(lut) if p.skip_empty && p.blend == Blend::Over && p.probe.is_colour() => {
-                Some(SkipPlan::new(vol, kernel, lut))
-            }
-            _ => None,
+        match (self.skip_kind()?, self.lut) {
+            (SkipKind::Opacity, Some(lut)) => Some(SkipPlan::new(vol, kernel, lut)),
+            (kind, _) => SkipPlan::for_max(vol, kernel, kind),
         }
     }
 
@@ -414,6 +424,11 @@ impl<'a> RenderSpec<'a> {
         f: impl FnOnce(&dyn Cast) -> R,
     ) -> R {
         let sizes = vol.sizes();
+        // Only a grid made for this render and volume shape is used.
+        let skip = skip.filter(|g| {
+            self.skip_kind()
+                .is_some_and(|kind| g.fits(kind, K::NAME, sizes))
+        });
         if self.params.reference {
             let a = Reference::<V, K, S>::new(
                 vol,
@@ -501,6 +516,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         sizes,
         support: S,
         lo: K::LO,
+        hint: core::cell::Cell::new(None),
     }
 }
 

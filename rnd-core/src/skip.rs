@@ -1,10 +1,16 @@
-//! Empty-space skipping for `over`: grids of blocks that record where the LUT opacity
-//! is zero for every value the convolution can reach, so the ray can skip the
-//! convolution there. Exact: a skipped sample would have had opacity 0, which adds
-//! nothing under `over` (its "inside" status, which decides outsideValue, is kept).
-//! Fine blocks (4 support starts per axis) decide single samples; coarse blocks
-//! (8 per axis, every fine block inside empty) carry the distance map that long jumps
-//! use.
+//! Skipping what cannot change a ray's result, exactly. Grids of blocks record, for
+//! each block of support starts, what the convolution can reach from the voxels it
+//! reads, so the ray can pass over samples without convolving them:
+//!
+//! - `over` of a colour probe: blocks where the LUT opacity is zero for every value the
+//!   convolution can reach (a skipped sample would add nothing; its "inside" status,
+//!   which decides outsideValue, is kept). Fine blocks (4 support starts per axis)
+//!   decide single samples; coarse blocks (8 per axis, every fine block inside empty)
+//!   carry the distance map that long jumps use.
+//! - `max` of the value or the gradient magnitude: an upper bound on the quantity per
+//!   block, with a proven margin for f32 rounding, so a sample whose block's bound is
+//!   at most the ray's running maximum is counted without convolving it (the maximum
+//!   keeps its bits). Coarse bounds let a ray pass a whole coarse block.
 
 use alloc::vec::Vec;
 
@@ -21,12 +27,27 @@ const _: () = assert!(B.is_multiple_of(F));
 /// Fine blocks per coarse block along each axis.
 const R: usize = B / F;
 
+/// What a [`SkipGrid`] records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SkipKind {
+    /// Where the LUT opacity is zero (`over` of a colour probe).
+    Opacity,
+    /// Upper bounds of the value (`max` of `v`).
+    MaxValue,
+    /// Upper bounds of the world gradient magnitude (`max` of `gm`).
+    MaxGradMag,
+}
+
 /// Which blocks of support-base indices give zero opacity everywhere, and how far each
-/// empty block is from the nearest block that is not.
+/// empty block is from the nearest block that is not; or, for `max` renders, an upper
+/// bound of the maximized quantity per block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkipGrid {
+    kind: SkipKind,
+    kernel: KernelName,
+    sizes: [usize; 3],
     /// Fine blocks per axis and their flags ([`FINE_EMPTY`], [`COARSE_EMPTY`] for the
-    /// coarse block holding it).
+    /// coarse block holding it; [`SkipKind::Opacity`] only).
     nf: [usize; 3],
     fine: Vec<u8>,
     /// Coarse blocks per axis and which of them are empty (every fine block in it is).
@@ -35,6 +56,9 @@ pub struct SkipGrid {
     /// Chebyshev distance, in blocks, from each block to the nearest non-empty one
     /// (0 for a non-empty block; saturates at 255; blocks beyond the grid do not count).
     dist: Vec<u8>,
+    /// Upper bounds per fine and per coarse block (the `max` kinds only).
+    hi: Vec<f32>,
+    coarse_hi: Vec<f32>,
 }
 
 /// Flag of a fine block: every sample whose support starts in it is transparent.
@@ -42,48 +66,141 @@ pub const FINE_EMPTY: u8 = 1;
 /// Flag of a fine block: so is every sample of the coarse block that holds it.
 pub const COARSE_EMPTY: u8 = 2;
 
-/// Largest Σ|w| of one axis's weights over all fractional positions (sampled finely,
-/// plus a margin).
-fn abs_weight_sum(k: KernelName) -> f64 {
+/// Relative margin for f32 rounding in a bound: the convolution's sums (at most 6³
+/// products, summed separably), the kernels' f32 weights, the gradient's world
+/// transform and square root each err by far less than 1e-5 of the sum of the terms'
+/// magnitudes, which the bounds' `A`-terms bound.
+const ROUNDING: f64 = 1e-4;
+
+/// Largest Σ|w| of one axis's weights (derivative `d`: 0 or 1) over all fractional
+/// positions: sampled at 4097 positions plus a 1% margin, which exceeds what lies
+/// between samples (Σ|w| changes by at most Σ|w'| · 1/8192 there, below 0.002 for
+/// every kernel; checked at 60× finer steps by a test).
+pub(crate) fn abs_weight_sum(k: KernelName, d: u32) -> f64 {
+    let (best, _) = weight_sums(k, d, 4096);
+    best * 1.01 + 1e-3
+}
+
+/// Largest Σ|w| and largest |Σw − 1| over `n + 1` fractional positions.
+fn weight_sums(k: KernelName, d: u32, n: u32) -> (f64, f64) {
     let s = k.support() as i32;
     let lo = k.lo();
-    let mut best: f64 = 1.0;
-    for j in 0..=1000 {
-        let a = j as f64 / 1000.0 - if s % 2 == 1 { 0.5 } else { 0.0 };
-        let sum: f64 = (0..s).map(|i| k.eval(a - (lo + i) as f64, 0).abs()).sum();
-        best = best.max(sum);
+    let (mut best, mut off): (f64, f64) = (0.0, 0.0);
+    for j in 0..=n {
+        let a = f64::from(j) / f64::from(n) - if s % 2 == 1 { 0.5 } else { 0.0 };
+        let w = (0..s).map(|i| k.eval(a - f64::from(lo + i), d));
+        let (abs, sum) = w.fold((0.0, 0.0), |(a, s), x| (a + x.abs(), s + x));
+        best = best.max(abs);
+        off = off.max((sum - 1.0).abs());
     }
-    best * 1.001
+    (best, off)
+}
+
+/// A block's bound `a·M + b·(M − m) + c·max(|m|, |M|)` for voxels in `[m, M]`, rounded
+/// up to f32; +∞ when the range is not finite (a NaN or infinite voxel).
+#[derive(Debug, Clone, Copy)]
+struct Linear([f64; 3]);
+
+impl Linear {
+    /// The bound of `kind` for `kernel` on a volume whose world-to-index 3×3 is `w`.
+    fn new(kind: SkipKind, kernel: KernelName, w: &crate::affine::Affine4) -> Self {
+        let c = abs_weight_sum(kernel, 0);
+        // Kernels whose weights sum to 1 (all but zero): the value is an affine mix.
+        let unity = weight_sums(kernel, 0, 64).1 < 1e-9;
+        let c3 = c * c * c;
+        match kind {
+            // v − M = Σ w_i (v_i − M) ≤ Σ_{w_i<0} |w_i| (M − m) = (C³ − 1)/2 · (M − m).
+            SkipKind::MaxValue if unity => Linear([1.0, (c3 - 1.0) / 2.0, ROUNDING * c3]),
+            SkipKind::MaxValue | SkipKind::Opacity => Linear([0.0, 0.0, c3 * (1.0 + ROUNDING)]),
+            SkipKind::MaxGradMag => {
+                // Index gradient: ∂x = Σ w'_x w_y w_z v, and Σ w' = 0 for such kernels,
+                // so |∂x| ≤ D C² (M − m)/2 (v_i less the range's middle); else D C² A.
+                // World: g_w = Σ_c ∂c · (row c of WtoI), so |g_w| ≤ Σ_c |row c| · max|∂c|.
+                let rows: f64 = (0..3)
+                    .map(|r| libm::sqrt((0..3).map(|c| w.at(r, c) * w.at(r, c)).sum()))
+                    .sum();
+                let g = rows * abs_weight_sum(kernel, 1) * c * c * (1.0 + ROUNDING);
+                if unity {
+                    Linear([0.0, g / 2.0, ROUNDING * g])
+                } else {
+                    Linear([0.0, 0.0, g * (1.0 + ROUNDING)])
+                }
+            }
+        }
+    }
+
+    fn bound(&self, m: f32, mx: f32) -> f32 {
+        if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
+            return f32::INFINITY;
+        }
+        let (m, mx) = (f64::from(m), f64::from(mx));
+        let [a, b, c] = self.0;
+        let x = a * mx + b * (mx - m) + c * m.abs().max(mx.abs());
+        let f = x as f32;
+        if f64::from(f) < x {
+            f.next_up()
+        } else {
+            f
+        }
+    }
 }
 
 /// What building a [`SkipGrid`] needs, split so that slabs of coarse blocks can be
 /// built independently (e.g. on several threads): [`SkipPlan::outputs`] gives the
 /// grids, [`SkipPlan::split`] cuts them into parts of whole coarse slabs,
 /// [`SkipPlan::build_slabs`] fills one part, and [`SkipPlan::finish`] adds the distance
-/// map. [`SkipGrid::new`] does all of it on one thread; the result is the same however
-/// the slabs are shared out.
+/// map. [`SkipPlan::build`] does all of it on one thread; the result is the same
+/// however the slabs are shared out.
 #[derive(Debug, Clone)]
 pub struct SkipPlan<'l> {
+    kind: SkipKind,
     kernel: KernelName,
-    lut: &'l Lut,
     sizes: [usize; 3],
     nf: [usize; 3],
     nb: [usize; 3],
-    /// Prefix counts of non-zero-opacity LUT entries.
-    nz: Vec<u32>,
-    /// Widening of a voxel range by negative kernel lobes (see [`SkipPlan::new`]).
-    wneg: f64,
+    test: Test<'l>,
+}
+
+/// How a block's voxel range is judged.
+#[derive(Debug, Clone)]
+enum Test<'l> {
+    /// Zero opacity: the LUT, prefix counts of its non-zero-opacity entries, and the
+    /// widening of a voxel range by negative kernel lobes.
+    Opacity {
+        lut: &'l Lut,
+        nz: Vec<u32>,
+        wneg: f64,
+    },
+    /// An upper bound.
+    Bound(Linear),
+}
+
+/// The grids a [`SkipPlan`] fills: fine flags and coarse emptiness ([`SkipKind::Opacity`])
+/// or fine and coarse bounds (the `max` kinds); the other pair is empty.
+#[derive(Debug, Clone, Default)]
+pub struct SkipCells {
+    fine: Vec<u8>,
+    empty: Vec<bool>,
+    hi: Vec<f32>,
+    coarse_hi: Vec<f32>,
+}
+
+/// The part of [`SkipCells`] that holds a run of coarse slabs.
+#[derive(Debug, Default)]
+pub struct SkipPart<'o> {
+    fine: &'o mut [u8],
+    empty: &'o mut [bool],
+    hi: &'o mut [f32],
+    coarse_hi: &'o mut [f32],
 }
 
 impl<'l> SkipPlan<'l> {
-    /// The plan for `vol` reconstructed with `kernel` and opacities from `lut`.
+    /// The plan for `vol` reconstructed with `kernel` and opacities from `lut`
+    /// ([`SkipKind::Opacity`]).
     pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &'l Lut) -> Self {
-        let sizes = vol.sizes();
-        let nf: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(F));
-        let nb: [usize; 3] = core::array::from_fn(|a| sizes[a].div_ceil(B));
         // Reachable values: v = Σ w_i v_i with Σ w_i = 1 and Σ |w_i| ≤ C (3-D product),
         // so v ∈ [m − W(M − m), M + W(M − m)] with W = (C − 1)/2.
-        let c = abs_weight_sum(kernel);
+        let c = abs_weight_sum(kernel, 0);
         let wneg = (c * c * c - 1.0) / 2.0;
         // Prefix counts of non-zero-opacity LUT entries.
         let e = lut.entries();
@@ -93,14 +210,43 @@ impl<'l> SkipPlan<'l> {
             let last = *nz.last().unwrap_or(&0);
             nz.push(last + u32::from(x[3] != 0.0));
         }
-        SkipPlan {
+        Self::with(
+            vol,
             kernel,
-            lut,
+            SkipKind::Opacity,
+            Test::Opacity { lut, nz, wneg },
+        )
+    }
+
+    /// The plan for a `max` render of the value ([`SkipKind::MaxValue`]) or the
+    /// gradient magnitude ([`SkipKind::MaxGradMag`]) of `vol` with `kernel`; `None`
+    /// for [`SkipKind::Opacity`] (see [`SkipPlan::new`]).
+    pub fn for_max<V: Voxel>(
+        vol: &Volume<'_, V>,
+        kernel: KernelName,
+        kind: SkipKind,
+    ) -> Option<Self> {
+        if kind == SkipKind::Opacity {
+            return None;
+        }
+        let lin = Linear::new(kind, kernel, vol.wtoi());
+        Some(Self::with(vol, kernel, kind, Test::Bound(lin)))
+    }
+
+    fn with<V: Voxel>(
+        vol: &Volume<'_, V>,
+        kernel: KernelName,
+        kind: SkipKind,
+        test: Test<'l>,
+    ) -> Self {
+        let sizes = vol.sizes();
+        SkipPlan {
+            kind,
+            kernel,
             sizes,
-            nf,
-            nb,
-            nz,
-            wneg,
+            nf: sizes.map(|n| n.div_ceil(F)),
+            nb: sizes.map(|n| n.div_ceil(B)),
+            test,
         }
     }
 
@@ -109,63 +255,82 @@ impl<'l> SkipPlan<'l> {
         self.nb[2]
     }
 
-    /// The fine and coarse grids to fill, all clear.
-    pub fn outputs(&self) -> (Vec<u8>, Vec<bool>) {
-        let (nf, nb) = (self.nf, self.nb);
-        (
-            alloc::vec![0; nf[0] * nf[1] * nf[2]],
-            alloc::vec![false; nb[0] * nb[1] * nb[2]],
-        )
+    /// What the grid records.
+    pub fn kind(&self) -> SkipKind {
+        self.kind
     }
 
-    /// The parts of `fine` and `empty` (from [`SkipPlan::outputs`]) that hold coarse
-    /// slabs `slabs.start` up to `slabs.end`, for [`SkipPlan::build_slabs`]; `slabs`
-    /// must be consecutive ranges from 0 covering all [`SkipPlan::slabs`], in order.
-    ///
-    /// # Panics
-    /// When the ranges ask for more slabs than the grids hold.
+    /// The grids to fill, all clear.
+    pub fn outputs(&self) -> SkipCells {
+        let (nf, nb) = (self.nf, self.nb);
+        let (fine, coarse) = (nf[0] * nf[1] * nf[2], nb[0] * nb[1] * nb[2]);
+        match self.test {
+            Test::Opacity { .. } => SkipCells {
+                fine: alloc::vec![0; fine],
+                empty: alloc::vec![false; coarse],
+                ..SkipCells::default()
+            },
+            Test::Bound(_) => SkipCells {
+                hi: alloc::vec![0.0; fine],
+                coarse_hi: alloc::vec![0.0; coarse],
+                ..SkipCells::default()
+            },
+        }
+    }
+
+    /// The parts of `cells` (from [`SkipPlan::outputs`]) that hold coarse slabs
+    /// `slabs.start` up to `slabs.end`, for [`SkipPlan::build_slabs`]; `slabs` must be
+    /// consecutive ranges from 0 covering all [`SkipPlan::slabs`], in order. Ranges
+    /// beyond the grids get what is left (nothing).
     pub fn split<'o>(
         &self,
-        mut fine: &'o mut [u8],
-        mut empty: &'o mut [bool],
+        cells: &'o mut SkipCells,
         slabs: &[core::ops::Range<usize>],
-    ) -> Vec<(&'o mut [u8], &'o mut [bool])> {
+    ) -> Vec<SkipPart<'o>> {
+        fn cut<'o, T>(rest: &mut &'o mut [T], n: usize) -> &'o mut [T] {
+            let all = core::mem::take(rest);
+            let (part, tail) = all.split_at_mut(n.min(all.len()));
+            *rest = tail;
+            part
+        }
         let (nf, nb) = (self.nf, self.nb);
+        let mut rest = SkipPart {
+            fine: &mut cells.fine,
+            empty: &mut cells.empty,
+            hi: &mut cells.hi,
+            coarse_hi: &mut cells.coarse_hi,
+        };
         let mut parts = Vec::with_capacity(slabs.len());
         for r in slabs {
             let nfine = ((r.end * R).min(nf[2]) - (r.start * R).min(nf[2])) * nf[0] * nf[1];
-            let (f, rest) = core::mem::take(&mut fine).split_at_mut(nfine);
-            fine = rest;
-            let (e, rest) = core::mem::take(&mut empty).split_at_mut(r.len() * nb[0] * nb[1]);
-            empty = rest;
-            parts.push((f, e));
+            let ncoarse = r.len() * nb[0] * nb[1];
+            parts.push(SkipPart {
+                fine: cut(&mut rest.fine, nfine),
+                empty: cut(&mut rest.empty, ncoarse),
+                hi: cut(&mut rest.hi, nfine),
+                coarse_hi: cut(&mut rest.coarse_hi, ncoarse),
+            });
         }
         parts
     }
 
-    /// Fills coarse slabs `slabs` of the grids: `fine` and `empty` are exactly those
-    /// slabs' parts (see [`SkipPlan::split`]).
+    /// Fills coarse slabs `slabs` of the grids: `part` is exactly those slabs' part
+    /// (see [`SkipPlan::split`]).
     pub fn build_slabs<V: Voxel>(
         &self,
         vol: &Volume<'_, V>,
         slabs: core::ops::Range<usize>,
-        fine: &mut [u8],
-        empty: &mut [bool],
+        part: SkipPart<'_>,
     ) {
-        let (sizes, nf, nb, nz, wneg, kernel) = (
-            self.sizes,
-            self.nf,
-            self.nb,
-            &self.nz,
-            self.wneg,
-            self.kernel,
-        );
+        let (sizes, nf, nb, kernel) = (self.sizes, self.nf, self.nb, self.kernel);
         let s = kernel.support();
-        let lut = self.lut;
         // The LUT test of one support range: true when every value the convolution can
         // reach from voxels in [m, mx] has zero opacity. NaN bounds (a NaN voxel) or
         // infinite ones are never empty.
         let zero_opacity = |m: f32, mx: f32| -> bool {
+            let Test::Opacity { lut, nz, wneg } = &self.test else {
+                return false;
+            };
             if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
                 return false;
             }
@@ -184,10 +349,10 @@ impl<'l> SkipPlan<'l> {
         // S − 1 more voxels per axis), separably and one fine slab at a time: along z
         // for every voxel of the slab's planes (element by element over whole planes,
         // which the compiler vectorizes), then along y for every row, then along x. A
-        // NaN voxel makes its range (−∞, ∞), so its blocks are never empty. A coarse
-        // block's range is the union of its fine blocks' ranges, so the LUT is tested
-        // once for a coarse block and only when that fails for each of its fine blocks
-        // (a zero-opacity range has zero-opacity parts).
+        // NaN voxel makes its range (−∞, ∞), so its blocks are never empty and their
+        // bounds infinite. A coarse block's range is the union of its fine blocks'
+        // ranges, so the LUT is tested once for a coarse block and only when that fails
+        // for each of its fine blocks (a zero-opacity range has zero-opacity parts).
         let range = |b: usize, a: usize| (b * F)..((b + 1) * F + s - 1).min(sizes[a]);
         let data = vol.data();
         let (s0, s1) = (sizes[0], sizes[1]);
@@ -243,6 +408,15 @@ impl<'l> SkipPlan<'l> {
                         }
                     }
                     let cells = &cells[..n];
+                    let c = ci + nb[0] * (cj + nb[1] * ck) - e0;
+                    if let Test::Bound(lin) = &self.test {
+                        // A coarse block's bound is its fine blocks' largest.
+                        part.coarse_hi[c] = cells.iter().fold(f32::NEG_INFINITY, |b, &(l, g)| {
+                            part.hi[g] = lin.bound(fmin[l], fmax[l]);
+                            b.max(part.hi[g])
+                        });
+                        continue;
+                    }
                     let (m, mx) = cells
                         .iter()
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &(l, _)| {
@@ -251,14 +425,14 @@ impl<'l> SkipPlan<'l> {
                     let all = zero_opacity(m, mx)
                         || cells.iter().fold(true, |all, &(l, g)| {
                             let e = zero_opacity(fmin[l], fmax[l]);
-                            fine[g] = if e { FINE_EMPTY } else { 0 };
+                            part.fine[g] = if e { FINE_EMPTY } else { 0 };
                             all & e
                         });
                     // A coarse block is empty when every fine block in it is.
-                    empty[ci + nb[0] * (cj + nb[1] * ck) - e0] = all;
+                    part.empty[c] = all;
                     if all {
                         for &(_, g) in cells {
-                            fine[g] = FINE_EMPTY | COARSE_EMPTY;
+                            part.fine[g] = FINE_EMPTY | COARSE_EMPTY;
                         }
                     }
                 }
@@ -268,20 +442,32 @@ impl<'l> SkipPlan<'l> {
 
     /// The whole grid, built on this thread.
     pub fn build<V: Voxel>(self, vol: &Volume<'_, V>) -> SkipGrid {
-        let (mut fine, mut empty) = self.outputs();
-        self.build_slabs(vol, 0..self.slabs(), &mut fine, &mut empty);
-        self.finish(fine, empty)
+        let mut cells = self.outputs();
+        let n = self.slabs();
+        let whole = core::iter::once(0..n).collect::<Vec<_>>();
+        if let Some(part) = self.split(&mut cells, &whole).pop() {
+            self.build_slabs(vol, 0..n, part);
+        }
+        self.finish(cells)
     }
 
-    /// The grid from the filled `fine` and `empty` grids.
-    pub fn finish(self, fine: Vec<u8>, empty: Vec<bool>) -> SkipGrid {
-        let dist = chessboard_distance(self.nb, &empty);
+    /// The grid from the filled `cells`.
+    pub fn finish(self, cells: SkipCells) -> SkipGrid {
+        let dist = match self.test {
+            Test::Opacity { .. } => chessboard_distance(self.nb, &cells.empty),
+            Test::Bound(_) => Vec::new(),
+        };
         SkipGrid {
+            kind: self.kind,
+            kernel: self.kernel,
+            sizes: self.sizes,
             nf: self.nf,
-            fine,
+            fine: cells.fine,
             nb: self.nb,
-            empty,
+            empty: cells.empty,
             dist,
+            hi: cells.hi,
+            coarse_hi: cells.coarse_hi,
         }
     }
 }
@@ -327,6 +513,39 @@ impl SkipGrid {
         let i = b[0] as usize + self.nb[0] * (b[1] as usize + self.nb[1] * b[2] as usize);
         let r = i64::from(self.dist[i]) - 1;
         b.map(|x| [(x - r) * B as i64, (x + r + 1) * B as i64 - 1])
+    }
+
+    /// What the grid records.
+    pub fn kind(&self) -> SkipKind {
+        self.kind
+    }
+
+    /// Whether the grid was built as `kind` for `kernel` on a volume of `sizes` (a
+    /// render uses a grid only then).
+    pub fn fits(&self, kind: SkipKind, kernel: KernelName, sizes: [usize; 3]) -> bool {
+        (self.kind, self.kernel, self.sizes) == (kind, kernel, sizes)
+    }
+
+    /// The upper bound of the maximized quantity for a convolution whose support starts
+    /// at `lo` (all three axes inside the volume), and the bound for its whole coarse
+    /// block (the `max` kinds).
+    #[inline(always)]
+    pub fn bounds_at(&self, lo: [i64; 3]) -> (f32, f32) {
+        let f = lo.map(|x| x as usize / F);
+        let c = lo.map(|x| x as usize / B);
+        (
+            self.hi[f[0] + self.nf[0] * (f[1] + self.nf[1] * f[2])],
+            self.coarse_hi[c[0] + self.nb[0] * (c[1] + self.nb[1] * c[2])],
+        )
+    }
+
+    /// The support starts, `[first, last]` per axis, of the coarse block of `lo`.
+    #[inline(always)]
+    pub fn coarse_box(lo: [i64; 3]) -> [[i64; 2]; 3] {
+        lo.map(|x| {
+            let b = x.div_euclid(B as i64) * B as i64;
+            [b, b + B as i64 - 1]
+        })
     }
 
     /// The coarse blocks and their Chebyshev distance map (for tests).
@@ -449,6 +668,143 @@ mod tests {
         assert!(!g.empty_at([12, 8, 3]) && !g.empty_at([13, 9, 4]));
         assert!(g.empty_fraction() < 1.0 && g.empty_at([0, 0, 8]) && g.coarse_empty_at([0, 0, 8]));
         assert!(!g.coarse_empty_at([8, 8, 0]));
+    }
+
+    /// The bound on Σ|w| (values and derivatives) holds between its samples too: no
+    /// kernel exceeds it at 60 times finer steps.
+    #[test]
+    fn weight_sum_bounds_hold_between_samples() {
+        use crate::kernel::KernelName;
+        for k in KernelName::ALL {
+            for d in [0, 1] {
+                let fine = super::weight_sums(k, d, 4096 * 60).0;
+                let b = super::abs_weight_sum(k, d);
+                assert!(fine <= b, "{k} d{d}: {fine} > {b}");
+                assert!(
+                    b <= fine * 1.02 + 2e-3,
+                    "{k} d{d}: {b} too loose for {fine}"
+                );
+            }
+        }
+    }
+
+    /// A render consults the `max` grid: a grid whose bounds lie (−∞) changes the image
+    /// (everything after a ray's first sample is skipped), the true one does not.
+    #[test]
+    fn max_renders_use_their_bounds() {
+        use crate::affine::Affine4;
+        use crate::blend::Blend;
+        use crate::camera::CameraSpec;
+        use crate::kernel::{Bspln3, KernelName};
+        use crate::probe::Probe;
+        use crate::render::{RenderParams, RenderSpec};
+        use crate::volume::Volume;
+        let sizes = [16, 17, 18];
+        let data: Vec<f32> = (0..sizes[0] * sizes[1] * sizes[2])
+            .map(|i| ((i * 7919) % 101) as f32 / 100.0)
+            .collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-8.0; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        let mut p = RenderParams::new(CameraSpec {
+            fr: [30.0, 4.0, 2.0],
+            at: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            nc: -12.0,
+            fc: 12.0,
+            fov: 30.0,
+            size: [8, 6],
+            ortho: true,
+        });
+        p.plane_sep = 0.25;
+        p.blend = Blend::Max;
+        for probe in [Probe::Value, Probe::GradMag] {
+            p.probe = probe;
+            let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
+            let mut g = spec.skip_grid(&vol, KernelName::Bspln3).unwrap();
+            let img = |g: Option<&SkipGrid>| {
+                let mut out = alloc::vec![0.0f32; 8 * 6 * spec.channels()];
+                spec.render_rows::<f32, Bspln3, 4>(vol, g, 0..6, &mut out, None);
+                out
+            };
+            let (plain, skip) = (img(None), img(Some(&g)));
+            assert!(plain
+                .iter()
+                .zip(&skip)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            g.hi.fill(f32::NEG_INFINITY);
+            g.coarse_hi.fill(f32::NEG_INFINITY);
+            assert_ne!(img(Some(&g)), plain, "{probe:?}");
+        }
+    }
+
+    /// The `max` bounds hold: every convolution (value, world gradient magnitude) whose
+    /// support starts in a fine block is at most that block's bound, for every kernel
+    /// (negative lobes included) on a sheared volume of random voxels.
+    #[test]
+    fn max_bounds_bound_the_convolution() {
+        use crate::affine::Affine4;
+        use crate::convo::Convo;
+        use crate::kernel::{KernelName, KernelTask};
+        use crate::volume::Volume;
+        struct Check<'v>(Volume<'v, f32>);
+        impl KernelTask for Check<'_> {
+            type Output = ();
+            fn run<K: crate::kernel::Kernel<S>, const S: usize>(self) {
+                let vol = self.0;
+                let sizes = vol.sizes();
+                let gv = super::SkipPlan::for_max(&vol, K::NAME, super::SkipKind::MaxValue)
+                    .unwrap()
+                    .build(&vol);
+                let gg = super::SkipPlan::for_max(&vol, K::NAME, super::SkipKind::MaxGradMag)
+                    .unwrap()
+                    .build(&vol);
+                let mut c = Convo::<f32, K, S>::new(vol);
+                let (mut vmax, mut bmax) = (f32::NEG_INFINITY, f32::NEG_INFINITY);
+                for i in 0..4000u64 {
+                    // A low-discrepancy walk over the volume.
+                    let x: [f64; 3] = core::array::from_fn(|a| {
+                        let r = [0.754877666, 0.569840291, 0.430159709][a];
+                        ((i as f64 + 0.5) * r).fract() * (sizes[a] as f64 - 1.0)
+                    });
+                    let (Some(lo), cs) = (c.support_start(x), c.eval_index(x, true)) else {
+                        continue;
+                    };
+                    if !cs.inside {
+                        continue;
+                    }
+                    let gm = crate::arith::gmag(cs.grad_w);
+                    let (bv, _) = gv.bounds_at(lo);
+                    let (bg, cg) = gg.bounds_at(lo);
+                    assert!(
+                        cs.value <= bv,
+                        "{}: v {} > {bv} at {x:?}",
+                        K::NAME,
+                        cs.value
+                    );
+                    assert!(gm <= bg && bg <= cg, "{}: gm {gm} > {bg} at {x:?}", K::NAME);
+                    (vmax, bmax) = (vmax.max(cs.value), bmax.max(bv));
+                }
+                // Not vacuous: the bounds are of the size of the values (within the
+                // widening by negative lobes).
+                let zero = K::NAME == KernelName::Zero;
+                assert!(zero || vmax >= 0.4 * bmax, "{}: {vmax} vs {bmax}", K::NAME);
+            }
+        }
+        let sizes = [13, 11, 12];
+        // Smooth, with a little noise.
+        let data: Vec<f32> = (0..sizes[0] * sizes[1] * sizes[2])
+            .map(|i| {
+                let (x, y, z) = (i % 13, (i / 13) % 11, i / 143);
+                let noise = ((i * 7919) % 211) as f32 / 2000.0;
+                libm::sinf(x as f32 * 0.5) + libm::cosf(y as f32 * 0.37) + 0.1 * z as f32 + noise
+            })
+            .collect();
+        let itow =
+            Affine4::from_columns([0.9, 0.1, 0.0], [0.0, 1.3, 0.2], [0.1, 0.0, 0.7], [0.0; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        for k in KernelName::ALL {
+            k.with(Check(vol));
+        }
     }
 
     /// Checks `g` built for kernel K on `vol`: each coarse block is empty exactly when

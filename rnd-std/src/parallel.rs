@@ -141,16 +141,16 @@ pub fn build_skip_grid<V: Voxel>(
     if t == 1 {
         return plan.build(vol);
     }
-    let (mut fine, mut empty) = plan.outputs();
+    let mut cells = plan.outputs();
     let ranges: Vec<std::ops::Range<usize>> = (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
-    let parts = plan.split(&mut fine, &mut empty, &ranges);
+    let parts = plan.split(&mut cells, &ranges);
     let plan_ref = &plan;
     std::thread::scope(|s| {
-        for (r, (f, e)) in ranges.iter().cloned().zip(parts) {
-            s.spawn(move || plan_ref.build_slabs(vol, r, f, e));
+        for (r, part) in ranges.iter().cloned().zip(parts) {
+            s.spawn(move || plan_ref.build_slabs(vol, r, part));
         }
     });
-    plan.finish(fine, empty)
+    plan.finish(cells)
 }
 
 #[cfg(test)]
@@ -158,7 +158,7 @@ mod tests {
     use super::build_skip_grid;
     use rnd_core::affine::Affine4;
     use rnd_core::kernel::KernelName;
-    use rnd_core::skip::{SkipGrid, SkipPlan};
+    use rnd_core::skip::{SkipGrid, SkipKind, SkipPlan};
     use rnd_core::txf::Lut;
     use rnd_core::volume::Volume;
 
@@ -200,6 +200,12 @@ mod tests {
             for t in 1..=7 {
                 let many = build_skip_grid(SkipPlan::new(&vol, k, &lut), &vol, t);
                 assert!(many == one, "{k:?} with {t} threads");
+                for kind in [SkipKind::MaxValue, SkipKind::MaxGradMag] {
+                    let plan = || SkipPlan::for_max(&vol, k, kind).expect("a max kind");
+                    let one = plan().build(&vol);
+                    let many = build_skip_grid(plan(), &vol, t);
+                    assert!(many == one, "{k:?} {kind:?} with {t} threads");
+                }
             }
         }
     }

@@ -151,7 +151,7 @@ pub static SPEC: CmdSpec = CmdSpec {
                 1,
                 "true",
                 "bool",
-                "empty-space skipping for over (exact; false = convolve every sample)",
+                "skip samples that cannot change the pixel: zero opacity under over, below the running maximum under max of v or gm (exact; false = convolve every sample)",
             ),
             def(
                 &["fast"],
