@@ -490,8 +490,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         }
         let (m, t) = (&self.wtoi.m, &self.wtoi.t);
         let sz = self.vol.sizes();
-        let mut lo = [[0.0f32; N]; 3];
-        let mut inside = [true; N];
+        // Axis by axis over whole lanes (so it vectorizes), then gathered per sample.
+        let mut lo = [[0i64; N]; 3];
+        let mut frac = [[0.0f32; N]; 3];
+        let mut ins = [[false; N]; 3];
         for a in 0..3 {
             let top = sz[a] as f32 - 1.0;
             for l in 0..N {
@@ -499,15 +501,21 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
                 // `refarith::place`, lane by lane.
                 let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
                 let base = math::floorf(y);
-                lo[a][l] = base + K::LO as f32;
-                inside[l] &= (lo[a][l] >= 0.0) & (lo[a][l] + (S as f32 - 1.0) <= top);
-                out.f[l][a] = x - base;
+                let first = base + K::LO as f32;
+                ins[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
+                // For an integer 0 ≤ c < 2^52, c + 2^52 holds c in its low mantissa
+                // bits: a conversion that vectorizes. Exact for inside lanes (0 ≤ first
+                // < 2^24); the others are not read.
+                let bits = (f64::from(first) + 4_503_599_627_370_496.0).to_bits() as i64;
+                lo[a][l] = bits.wrapping_sub(0x4330_0000_0000_0000);
+                frac[a][l] = x - base;
             }
         }
         for l in 0..N {
             out.past[l] = -pv[2][l] > cam.fcv;
-            out.inside[l] = inside[l];
-            out.n[l] = core::array::from_fn(|a| lo[a][l] as i64);
+            out.inside[l] = ins[0][l] & ins[1][l] & ins[2][l];
+            out.n[l] = [lo[0][l], lo[1][l], lo[2][l]];
+            out.f[l] = [frac[0][l], frac[1][l], frac[2][l]];
         }
     }
     fn positions(&self, ray: &RefRay, k: u32) -> [[f64; 3]; 3] {
