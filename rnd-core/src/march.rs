@@ -62,7 +62,14 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// Under `max` with bounds: the sample number where the last ray cast found its
     /// maximum (a good first guess for the next ray's; results never depend on it).
     pub hint: Cell<Option<u32>>,
+    /// Consecutive rays on which bounds skipped nothing: past [`IDLE`], only every
+    /// 16th ray looks at them (where they never help, their cost is saved; results
+    /// never depend on it).
+    pub idle: Cell<u32>,
 }
+
+/// Rays without a skip after which bounds are looked at only on every 16th ray.
+const IDLE: u32 = 8;
 
 /// One ray's running state.
 struct State<'t> {
@@ -142,7 +149,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let (skip, below) = match self.skip {
             Some(g) if g.kind() == SkipKind::Opacity => (Some(g), None),
             // A trace sees every sample's value.
-            Some(g) if !tracing => (None, Some(g)),
+            Some(g) if !tracing && (self.idle.get() < IDLE || hi.is_multiple_of(16)) => {
+                (None, Some(g))
+            }
             _ => (None, None),
         };
         let line = match skip.or(below) {
@@ -262,6 +271,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         self.flush::<G, N>(&ray, &mut st, &mut b);
         if below.is_some() {
             self.hint.set(st.best);
+            self.idle.set(if st.unseen == 0 {
+                self.idle.get() + 1
+            } else {
+                0
+            });
             st.acc.count += st.unseen;
         }
         st.acc.finish(p.outside, out);

@@ -517,6 +517,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         support: S,
         lo: K::LO,
         hint: core::cell::Cell::new(None),
+        idle: core::cell::Cell::new(0),
     }
 }
 
