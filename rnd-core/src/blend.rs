@@ -135,12 +135,11 @@ impl Accum {
         self.count += xs.len() as u32;
     }
 
-    /// Blends `n` samples that change nothing but the count: opacity 0 under `over`
-    /// (what [`Accum::add`] of `[0.0; 4]` does `n` times), or, under `max` after a
-    /// first sample, values that [`Accum::below_max`] admits.
+    /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
+    /// [`Accum::add`] of `[0.0; 4]` does `n` times).
     #[inline(always)]
-    pub fn add_unchanged(&mut self, n: u32) {
-        debug_assert!(self.blend == Blend::Over || self.count > 0);
+    pub fn add_transparent(&mut self, n: u32) {
+        debug_assert_eq!(self.blend, Blend::Over);
         self.count += n;
     }
 

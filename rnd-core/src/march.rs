@@ -251,12 +251,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
                             let j = self.box_run_end(&l, sk.empty_box(n), kk, k1);
                             if j > kk + 1 && !self.a.past(&ray, j) {
-                                st.acc.add_unchanged(j - kk + 1);
+                                st.acc.add_transparent(j - kk + 1);
                                 k = j + 1;
                                 continue 'ray;
                             }
                         }
-                        st.acc.add_unchanged(1);
+                        st.acc.add_transparent(1);
                         continue;
                     }
                 }
@@ -293,15 +293,19 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         let mut res = [[0.0f32; 4]; 1];
         self.a.convolve::<G, 1>(&[n], &[f], 1, &mut res);
-        let x = match self.spec.params.probe {
-            Probe::GradMag if G => self.a.gmags(&res)[0],
-            Probe::Value => res[0][0],
-            _ => f32::NAN,
-        };
-        if x.is_nan() {
-            f32::NEG_INFINITY
-        } else {
-            x
+        match self.scalars::<G, 1>(&res) {
+            Some([x]) if !x.is_nan() => x,
+            _ => f32::NEG_INFINITY,
+        }
+    }
+
+    /// The one-channel probe (`v`, or `gm` with the gradient) of convolved sums `res`.
+    #[inline(always)]
+    fn scalars<const G: bool, const N: usize>(&self, res: &[[f32; 4]; N]) -> Option<[f32; N]> {
+        match self.spec.params.probe {
+            Probe::Value => Some(res.map(|r| r[0])),
+            Probe::GradMag if G => Some(self.a.gmags(res)),
+            _ => None,
         }
     }
 
@@ -346,7 +350,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     }
                     j += 1;
                 } else {
-                    st.acc.add_unchanged(1);
+                    st.acc.add_transparent(1);
                 }
             }
             return false;
@@ -369,12 +373,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let p = &self.spec.params;
         if p.blend != Blend::Over && st.trace.is_none() {
             // One channel under max/sum/mean: no early end, no colour.
-            let xs: Option<[f32; N]> = match p.probe {
-                Probe::Value => Some(res.map(|r| r[0])),
-                Probe::GradMag if G => Some(self.a.gmags(res)),
-                _ => None,
-            };
-            if let Some(xs) = xs {
+            if let Some(xs) = self.scalars::<G, N>(res) {
                 let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
                 st.acc.add_scalars(&xs[..m]);
                 let now = st.acc.acc[0];
