@@ -2,10 +2,13 @@
 # rendr vs Teem, same machine, same run: samples per second of teem-mrender and
 # rendr go (value/max and gradmag/max; tent, bspln3, c4hexic), frame time of
 # teem-miter and rendr go for an over + lit colour rendering, with 1 and 2 threads,
-# plus how rendr's cost grows with pixels and samples per ray, and rendr's two engines
-# (the default reference arithmetic and -ref false, the f64 engine) against Teem.
+# plus how rendr's cost grows with pixels and samples per ray, rendr's two engines
+# (the default reference arithmetic and -ref false, the f64 engine) against Teem, inside
+# samples per second against this machine's peak, and VTK's fixed-point ray caster.
 # Usage: bench/run.sh   (prints markdown; needs teem-apps and ../shared)
 #        ONLY=ref bench/run.sh   (only the engines section)
+#        ONLY=rate bench/run.sh  (only inside samples per second against the machine's peak)
+#        ONLY=vtk bench/run.sh   (only VTK's ray caster; bench/setup-vtk.sh makes its Python)
 #        ENGINE=false bench/run.sh   (the main sections with go -ref false)
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
@@ -44,6 +47,18 @@ pair() {
   done
   echo "$ba $bb"
 }
+
+render_time() { # render seconds reported by rendr go under RND_VERBOSE=1
+  RND_VERBOSE=1 "$@" 2>&1 >/dev/null | awk '/seconds to render/ { print $3 }'
+}
+min() { awk -v a="$1" -v x="$2" 'BEGIN { print (x < a ? x : a) }'; }
+
+# The colour LUT and light of the `over` renderings (rendr and Teem read the same table).
+printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
+printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
+"$R" lgen -i c.txt a.txt -mm 0 2000 -l 1024 -o lut.nrrd
+teem-unu axinfo -i lut.nrrd -a 0 -l RGBA | teem-unu axinfo -a 1 -l "gage(scalar:v)" -o txf.nrrd
+printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
 
 # Volumes: the real CT (128x128x256 short; it records no geometry, so `unu dnorm` gives
 # both programs the same identity orientation) and a 256^3 synthetic float (raw, so
@@ -107,10 +122,6 @@ echo "each round's own ratios (1- and 2-thread runs a second apart), less swayed
 echo
 echo "| volume | query | 1 thread s | 2 threads s | speed-up | two 1-thread renders at once s | machine | median speed-up | median machine |"
 echo "|---|---|---|---|---|---|---|---|---|"
-render_time() { # render seconds reported by rendr go under RND_VERBOSE=1
-  RND_VERBOSE=1 "$@" 2>&1 >/dev/null | awk '/seconds to render/ { print $3 }'
-}
-min() { awk -v a="$1" -v x="$2" 'BEGIN { print (x < a ? x : a) }'; }
 for v in ct syn; do
   at=(${AT[$v]})
   fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
@@ -142,11 +153,6 @@ done
 echo
 echo "## Frame time, teem-miter vs rendr go (CT, colour LUT + Blinn-Phong, over, early termination 0.99; whole commands, best of 6 Teem and 12 rendr runs, alternating)"
 echo
-printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
-printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
-"$R" lgen -i c.txt a.txt -mm 0 2000 -l 1024 -o lut.nrrd
-teem-unu axinfo -i lut.nrrd -a 0 -l RGBA | teem-unu axinfo -a 1 -l "gage(scalar:v)" -o txf.nrrd
-printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
 echo "| kernel | threads | Teem s | rendr s | ratio |"
 echo "|---|---|---|---|---|"
 at=(${AT[ct]})
@@ -187,18 +193,12 @@ for cfg in "128 1" "256 1" "512 1" "256 2" "256 0.5" "256 0.25"; do
 done
 fi
 
+if [ "${ONLY:-all}" = all ] || [ "${ONLY:-all}" = ref ]; then
 echo
 echo "## Engines: rendr go (default: the reference arithmetic) and go -ref false (the f64 engine) vs Teem (bspln3, 1 thread; best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
 echo
 echo "| volume | rendering | Teem s | rendr s | rendr -ref false s | Teem / rendr | Teem / -ref false | rendr / -ref false |"
 echo "|---|---|---|---|---|---|---|---|"
-if [ "${ONLY:-all}" != all ]; then
-  printf '#space:=rgb\n0 1 0.9 0.8\n2000 1 0.6 0.5\n' > c.txt
-  printf '#space:=alpha\n0 0\n300 0\n600 0.2\n2000 1\n' > a.txt
-  "$R" lgen -i c.txt a.txt -mm 0 2000 -l 1024 -o lut.nrrd
-  teem-unu axinfo -i lut.nrrd -a 0 -l RGBA | teem-unu axinfo -a 1 -l "gage(scalar:v)" -o txf.nrrd
-  printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
-fi
 for v in ct syn; do
   at=(${AT[$v]})
   fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
@@ -226,3 +226,76 @@ read -r tt rt < <(REPS=6 pair "$mi" "$go")
 read -r _ ft < <(REPS=6 pair "$mi" "$go -ref false")
 awk -v tt="$tt" -v rt="$rt" -v ft="$ft" 'BEGIN {
   printf "| ct | rgbalit/over (teem-miter) | %.3f | %.3f | %.3f | %.1fx | %.1fx | %.2fx |\n", tt, rt, ft, tt / rt, tt / ft, rt / ft }'
+fi
+
+if [ "${ONLY:-all}" = all ] || [ "${ONLY:-all}" = rate ]; then
+echo
+echo "## Inside samples per second per core, against this machine's peak (1 thread, bspln3 unless named)"
+echo
+echo "Inside samples: the ray samples whose kernel support lies in the volume (the work of a"
+echo "renderer without skipping or early termination; counted with \`go -p in -b sum\`), over"
+echo "the render phase (RND_VERBOSE, best of 3). The peak is one core's f32 throughput"
+echo "(\`cargo bench -p rnd-tests --bench peak\`, best of 5): rendr's bit-exact sums use"
+echo "separate multiplies and adds (no FMA), so 'mul+add' is its ceiling."
+echo
+(cd "$top" && cargo bench -q -p rnd-tests --bench peak 2>/dev/null) | sed 's/^/- /'
+echo
+echo "| volume | rendering | inside samples | render s | inside Msamples/s |"
+echo "|---|---|---|---|---|"
+for v in ct syn; do
+  at=(${AT[$v]})
+  fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+  cam=(-i "${VOL[$v]}" -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov" -sz $SZ $SZ -s $STEP -nt 1 -ref "$ENGINE" -sp false)
+  cases=("bspln3 v max" "bspln3 gm max")
+  [ "$v" = ct ] && cases+=("tent rgbalit over" "bspln3 rgbalit over")
+  for c in "${cases[@]}"; do
+    set -- $c
+    inside=$("$R" go "${cam[@]}" -k "$1" -p in -b sum -o - | teem-unu project -a 0 -m sum | teem-unu save -f text | awk '{ for (i = 1; i <= NF; i++) s += $i } END { printf "%d", s }')
+    extra=()
+    [ "$3" = over ] && extra=(-us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt -ph 0.2 0.8 0.1 150)
+    rr=1e9
+    for _ in 1 2 3; do
+      t=$(render_time "$R" go "${cam[@]}" -k "$1" -p "$2" -b "$3" "${extra[@]}" -o r.nrrd)
+      rr=$(min "$rr" "$t")
+    done
+    awk -v v="$v" -v c="$2/$3 $1" -v n="$inside" -v r="$rr" 'BEGIN { printf "| %s | %s | %d | %.3f | %.0f |\n", v, c, n, r, n / r / 1e6 }'
+  done
+done
+fi
+
+if [ "${ONLY:-all}" = all ] || [ "${ONLY:-all}" = vtk ]; then
+echo
+echo "## VTK's fixed-point CPU ray caster vs rendr go (CT, ${SZ}x${SZ}, step $STEP, 1 thread)"
+echo
+VTK_PY=${VTK_PY:-$top/bench/.venv/bin/python}
+if ! "$VTK_PY" -c 'import vtk, numpy' 2>/dev/null; then
+  echo "skipped: no Python with vtk and numpy at $VTK_PY (make one with bench/setup-vtk.sh)"
+else
+echo "VTK $("$VTK_PY" -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())') from PyPI, offscreen through OSMesa"
+echo "(bench/vtk_raycast.py): vtkFixedPointVolumeRayCastMapper, trilinear (VTK has no B-spline"
+echo "reconstruction), 15-bit fixed-point arithmetic, space leaping, precomputed normals. Its first"
+echo "frame includes computing those; later frames (best of 5) reuse them. rendr: whole"
+echo "command (reading the file included, best of 3) and render phase (best of 3), every frame"
+echo "computed from scratch. Ratios: VTK time / rendr time (above 1: rendr is faster)."
+echo
+echo "| rendering | rendr kernel | VTK first s | VTK later s | rendr command s | rendr render s | later / render |"
+echo "|---|---|---|---|---|---|---|"
+teem-unu save -f nrrd -e raw -i "$CT" -o ctraw.nrrd
+at=(${AT[ct]})
+fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
+for c in "mip tent" "mip bspln3" "over tent" "over bspln3"; do
+  set -- $c
+  read -r vf vl < <(VTK_DEFAULT_OPENGL_WINDOW=vtkOSOpenGLRenderWindow "$VTK_PY" "$top/bench/vtk_raycast.py" \
+    ctraw.nrrd "$1" "$SZ" "$STEP" 1 "$fr" "${AT[ct]}" "0 0 1")
+  if [ "$1" = mip ]; then what=(-p v -b max); else
+    what=(-p rgbalit -b over -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt -ph 0.2 0.8 0.1 150); fi
+  args=(go -i "$CT" -fr $fr -at ${AT[ct]} -up 0 0 1 -ortho -nc -130 -fc 130 -fov "$fov" \
+        -sz $SZ $SZ -k "$2" "${what[@]}" -s $STEP -nt 1 -ref "$ENGINE" -o r.nrrd)
+  rc=$(best "$R" "${args[@]}")
+  rr=1e9
+  for _ in 1 2 3; do rr=$(min "$rr" "$(render_time "$R" "${args[@]}")"); done
+  awk -v c="$1" -v k="$2" -v vf="$vf" -v vl="$vl" -v rc="$rc" -v rr="$rr" 'BEGIN {
+    printf "| %s | %s | %.3f | %.3f | %.3f | %.3f | %.2fx |\n", (c == "mip" ? "v/max" : "rgbalit/over"), k, vf, vl, rc, rr, vl / rr }'
+done
+fi
+fi

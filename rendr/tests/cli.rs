@@ -1581,7 +1581,7 @@ fn fast_loop_matches_plain_on_real_volume() {
 /// and both cubic kernels.
 #[test]
 fn avx2_matches_sse_on_real_volume() {
-    if !rnd_core::avx::Simd::detect().avx2() {
+    if !rnd_core::simd::Simd::detect().avx2() {
         eprintln!("skipped: this processor has no AVX2");
         return;
     }

@@ -12,13 +12,13 @@
 //!   operation sequence ([`crate::refarith`]), its running sums run [`LANES`] samples
 //!   side by side, opacity correction by `powf`, `over` on the transparency.
 
-use crate::avx::Simd;
 use crate::blend::{Accum, Blend};
 use crate::camera::Camera;
 use crate::convo::{grad_to_world, locate, place, world_gmags, Convo, Place};
 use crate::kernel::Kernel;
 use crate::math;
 use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
+use crate::simd::Simd;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 

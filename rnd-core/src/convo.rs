@@ -11,6 +11,9 @@
 use core::marker::PhantomData;
 
 use crate::kernel::Kernel;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::sse;
+use crate::simd::{Simd, Supports};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
@@ -37,10 +40,8 @@ pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
     sizes: [i64; 3],
     /// Transpose of WtoI's 3×3 (maps index-space gradients to world space).
     gmat: [[f32; 3]; 3],
-    /// Whether batches use the AVX2 pair sums, and the AVX-512 quad sums (same bits, see
-    /// [`crate::avx`]).
-    avx: bool,
-    avx512: bool,
+    /// The vector level of batches (the same bits at every level, see [`crate::simd`]).
+    simd: Simd,
     _k: PhantomData<K>,
 }
 
@@ -51,12 +52,12 @@ pub(crate) const INDEX_LIMIT: f64 = 1e12;
 impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// New convolution state for `vol`, with the best vector level the processor has.
     pub fn new(vol: Volume<'v, V>) -> Self {
-        Self::with_simd(vol, crate::avx::Simd::detect())
+        Self::with_simd(vol, Simd::detect())
     }
 
     /// New convolution state for `vol` using vector level `simd` (the same bits at every
     /// level).
-    pub fn with_simd(vol: Volume<'v, V>, simd: crate::avx::Simd) -> Self {
+    pub fn with_simd(vol: Volume<'v, V>, simd: Simd) -> Self {
         let w = vol.wtoi();
         let mut gmat = [[0.0f32; 3]; 3];
         for (r, row) in gmat.iter_mut().enumerate() {
@@ -69,8 +70,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             vol,
             sizes: [s[0] as i64, s[1] as i64, s[2] as i64],
             gmat,
-            avx: simd.avx2(),
-            avx512: simd.avx512(),
+            simd,
             _k: PhantomData,
         }
     }
@@ -194,28 +194,17 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         out: &mut [[f32; 4]; N],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if let (4, true, 0, Some(co)) = (S, self.avx, N % 4, K::CUBIC4) {
+        if let (4, Some(co)) = (S, K::CUBIC4) {
             let (s0, s01) = (
                 self.sizes[0] as usize,
                 (self.sizes[0] * self.sizes[1]) as usize,
             );
-            // SAFETY: AVX2 is available (self.avx), AVX-512F too when self.avx512, and N
-            // is a multiple of 4; the supports are checked inside.
-            unsafe {
-                crate::avx::sums_run::<V, G, N>(
-                    self.vol.data(),
-                    s0,
-                    s01,
-                    K::LO as i64,
-                    start,
-                    step,
-                    k,
-                    &co,
-                    self.avx512,
-                    out,
-                )
-            };
-            return;
+            let (data, lo) = (self.vol.data(), K::LO as i64);
+            if crate::simd::cubic_run::<V, G, N>(
+                self.simd, data, s0, s01, lo, start, step, k, &co, out,
+            ) {
+                return;
+            }
         }
         let mut n = [[0i64; 3]; N];
         let mut alpha = [[0.0f64; 3]; N];
@@ -238,27 +227,20 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         alpha: &[[f64; 3]; N],
         out: &mut [[f32; 4]; N],
     ) {
-        let data = self.vol.data();
         let (s0, s01) = (
             self.sizes[0] as usize,
             (self.sizes[0] * self.sizes[1]) as usize,
         );
         let base: [usize; N] = core::array::from_fn(|i| {
             let n = n[i];
-            let b = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
-            // The support's last voxel; every row below ends at or before it.
-            assert!(b + (S - 1) * (1 + s0 + s01) < data.len());
-            b
+            n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize
         });
+        let sup = Supports::<V, S, N>::new(self.vol.data(), base, s0, s01);
         #[cfg(target_arch = "x86_64")]
-        if let (4, true, 0, Some(co)) = (S, self.avx, N % 4, K::CUBIC4) {
-            let wide = self.avx512;
-            // SAFETY: AVX2 is available (self.avx), AVX-512F too when wide, N is a
-            // multiple of 4, and every support's last voxel was checked above.
-            unsafe {
-                crate::avx::sums_pairs::<V, G, N>(data, &base, s0, s01, alpha, &co, wide, out)
-            };
-            return;
+        if let Some(co) = K::CUBIC4 {
+            if sup.cubic_sums::<G>(self.simd, alpha, &co, out) {
+                return;
+            }
         }
         #[cfg(target_arch = "x86_64")]
         if S == 4 {
@@ -282,13 +264,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
                 core::array::from_fn(|a| if G { weights(i, a, 1) } else { sse::zero() })
             });
             for i in 0..N {
-                let b = base[i];
-                // SAFETY: row (j, k) for j, k < 4 is the 4 voxels from b + j s0 + k s01,
-                // which end at or before the voxel checked above.
-                let row = |j: usize, k: usize| unsafe {
-                    V::load4(data.as_ptr().add(b + j * s0 + k * s01))
-                };
-                out[i] = sse::sums4::<G>(row, &w[i], &d[i]);
+                out[i] = sse::sums4::<G>(|j, k| sup.row4(i, j, k), &w[i], &d[i]);
             }
             return;
         }
@@ -304,14 +280,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
                 }
             });
             for i in 0..N {
-                let b = base[i];
-                // SAFETY: rows (j, k) for j, k < 2 are the 2 voxels from b + j s0 + k s01,
-                // which end at or before the voxel checked above.
-                let rows = unsafe {
-                    let p = data.as_ptr().add(b);
-                    V::load2x4(p, p.add(s0), p.add(s01), p.add(s0 + s01))
-                };
-                out[i] = sse::sums2::<G>(rows, &w[i], &d[i]);
+                out[i] = sse::sums2::<G>(sup.rows2(i), &w[i], &d[i]);
             }
             return;
         }
@@ -325,14 +294,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
             }
         });
         for i in 0..N {
-            let b = base[i];
-            let row = |j: usize, k: usize| -> [f32; S] {
-                let o = b + j * s0 + k * s01;
-                // SAFETY: o + S - 1 is at most the voxel checked above.
-                let r = unsafe { data.get_unchecked(o..o + S) };
-                core::array::from_fn(|x| r[x].to_f32())
-            };
-            out[i] = sums::<S, G>(row, &w[i], &d[i]);
+            out[i] = sums::<S, G>(|j, k| sup.row(i, j, k), &w[i], &d[i]);
         }
     }
 }
@@ -480,216 +442,6 @@ pub(crate) fn sums<const S: usize, const G: bool>(
     }
 }
 
-/// Support-4 sums with SSE (x86_64 baseline).
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod sse {
-    use core::arch::x86_64::*;
-
-    /// Four f32 lanes.
-    pub(crate) type F4 = __m128;
-
-    // SAFETY (every `unsafe` block here): SSE and SSE2 are part of the x86_64 baseline, so
-    // the intrinsics are always available; loads and stores touch 4-entry f32 arrays.
-
-    /// Zero in all lanes.
-    #[inline(always)]
-    pub(crate) fn zero() -> __m128 {
-        // SAFETY: SSE is x86_64 baseline.
-        unsafe { _mm_setzero_ps() }
-    }
-
-    /// Four f32 as lanes.
-    #[inline(always)]
-    pub(crate) fn load(x: &[f32; 4]) -> __m128 {
-        // SAFETY: SSE/SSE2 are x86_64 baseline; the load reads the 4 floats of `x`.
-        unsafe { _mm_loadu_ps(x.as_ptr()) }
-    }
-
-    /// [`crate::kernel::horner4`] in one vector, lane for lane the same operations.
-    #[inline(always)]
-    pub(crate) fn horner(co: &[[f32; 4]; 4], a: f32) -> __m128 {
-        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
-        unsafe {
-            let a = _mm_set1_ps(a);
-            let t = _mm_add_ps(_mm_mul_ps(load(&co[3]), a), load(&co[2]));
-            let t = _mm_add_ps(_mm_mul_ps(t, a), load(&co[1]));
-            _mm_add_ps(_mm_mul_ps(t, a), load(&co[0]))
-        }
-    }
-
-    /// Lane `i` of `v` in every lane.
-    #[inline(always)]
-    fn lane(v: __m128, i: usize) -> __m128 {
-        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
-        unsafe {
-            match i {
-                0 => _mm_shuffle_ps::<0x00>(v, v),
-                1 => _mm_shuffle_ps::<0x55>(v, v),
-                2 => _mm_shuffle_ps::<0xAA>(v, v),
-                _ => _mm_shuffle_ps::<0xFF>(v, v),
-            }
-        }
-    }
-
-    /// Four samples of [`super::world_gmags`]: the sums transposed so that each vector
-    /// holds one component of all four, then the matrix product and the magnitude
-    /// lane by lane (square root correctly rounded, as the scalar one).
-    #[inline(always)]
-    pub(crate) fn world_gmag4(m: &[[f32; 3]; 3], r: &[[f32; 4]; 4]) -> [f32; 4] {
-        let mut out = [0.0f32; 4];
-        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
-        unsafe {
-            let (a, b, c, d) = (load(&r[0]), load(&r[1]), load(&r[2]), load(&r[3]));
-            let t0 = _mm_unpacklo_ps(a, b);
-            let t1 = _mm_unpacklo_ps(c, d);
-            let t2 = _mm_unpackhi_ps(a, b);
-            let t3 = _mm_unpackhi_ps(c, d);
-            let g = [
-                _mm_movehl_ps(t1, t0),
-                _mm_movelh_ps(t2, t3),
-                _mm_movehl_ps(t3, t2),
-            ];
-            let row = |i: usize| {
-                let x = _mm_mul_ps(_mm_set1_ps(m[i][0]), g[0]);
-                let x = _mm_add_ps(x, _mm_mul_ps(_mm_set1_ps(m[i][1]), g[1]));
-                _mm_add_ps(x, _mm_mul_ps(_mm_set1_ps(m[i][2]), g[2]))
-            };
-            let (x, y, z) = (row(0), row(1), row(2));
-            let s = _mm_add_ps(
-                _mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)),
-                _mm_mul_ps(z, z),
-            );
-            _mm_storeu_ps(out.as_mut_ptr(), _mm_sqrt_ps(s));
-        }
-        out
-    }
-
-    /// [`super::sums`] for S = 2, the same operations in the same order (so bit-identical
-    /// to it): `rows` holds rows (0, 0) and (1, 0) in the first vector and rows (0, 1)
-    /// and (1, 1) in the second (row (j, k): row j of slice k, 2 voxels along x); `w`
-    /// and `d` the value and derivative weights of the x, y and z axes.
-    #[inline(always)]
-    pub(crate) fn sums2<const G: bool>(
-        rows: [__m128; 2],
-        w: &[[f32; 2]; 3],
-        d: &[[f32; 2]; 3],
-    ) -> [f32; 4] {
-        let [wx, wy, wz] = w;
-        let [dx, dy, dz] = d;
-        let mut out = [0.0f32; 4];
-        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
-        unsafe {
-            let [a, b] = rows;
-            // Along z: lanes [p_0, p_1] (j = 0) and [p_0, p_1] (j = 1).
-            let p = _mm_add_ps(
-                _mm_mul_ps(_mm_set1_ps(wz[0]), a),
-                _mm_mul_ps(_mm_set1_ps(wz[1]), b),
-            );
-            // Along y: the j = 0 products plus the j = 1 products.
-            let wyv = _mm_set_ps(wy[1], wy[1], wy[0], wy[0]);
-            let t1 = _mm_mul_ps(wyv, p);
-            if G {
-                let q = _mm_add_ps(
-                    _mm_mul_ps(_mm_set1_ps(dz[0]), a),
-                    _mm_mul_ps(_mm_set1_ps(dz[1]), b),
-                );
-                let t2 = _mm_mul_ps(_mm_set_ps(dy[1], dy[1], dy[0], dy[0]), p);
-                let t3 = _mm_mul_ps(wyv, q);
-                // [acc_0, acc_1, accy_0, accy_1] and [accz_0, accz_1, …].
-                let x = _mm_add_ps(_mm_movelh_ps(t1, t2), _mm_movehl_ps(t2, t1));
-                let z = _mm_add_ps(t3, _mm_movehl_ps(t3, t3));
-                // Along x: products, then the two of each sum added.
-                let m1 = _mm_mul_ps(x, _mm_set_ps(wx[1], wx[0], wx[1], wx[0]));
-                let az = _mm_movelh_ps(x, z);
-                let m2 = _mm_mul_ps(az, _mm_set_ps(wx[1], wx[0], dx[1], dx[0]));
-                // [v, ∂y, ∂x, ∂z] = even lanes + odd lanes, then reordered.
-                let h = _mm_add_ps(
-                    _mm_shuffle_ps::<0b10_00_10_00>(m1, m2),
-                    _mm_shuffle_ps::<0b11_01_11_01>(m1, m2),
-                );
-                let s = _mm_shuffle_ps::<0b11_01_10_00>(h, h);
-                _mm_storeu_ps(out.as_mut_ptr(), s);
-            } else {
-                let acc = _mm_add_ps(t1, _mm_movehl_ps(t1, t1));
-                let m = _mm_mul_ps(acc, _mm_set_ps(0.0, 0.0, wx[1], wx[0]));
-                out[0] = _mm_cvtss_f32(_mm_add_ss(m, _mm_shuffle_ps::<0b01>(m, m)));
-            }
-        }
-        out
-    }
-
-    /// [`super::sums`] for S = 4, the same operations in the same order four lanes at a
-    /// time (so bit-identical to it); `row(j, k)` gives row j of slice k as 4 lanes, `w`
-    /// and `d` the value and derivative weights of the x, y and z axes.
-    #[inline(always)]
-    pub(crate) fn sums4<const G: bool>(
-        row: impl Fn(usize, usize) -> __m128,
-        w: &[__m128; 3],
-        d: &[__m128; 3],
-    ) -> [f32; 4] {
-        let mut out = [0.0f32; 4];
-        // SAFETY: SSE/SSE2 are x86_64 baseline; every load and store here touches a 4-float array.
-        unsafe {
-            let (mut acc, mut accy, mut accz) = (zero(), zero(), zero());
-            for j in 0..4 {
-                let r0 = row(j, 0);
-                let mut p = _mm_mul_ps(lane(w[2], 0), r0);
-                let mut q = if G {
-                    _mm_mul_ps(lane(d[2], 0), r0)
-                } else {
-                    zero()
-                };
-                for k in 1..4 {
-                    let r = row(j, k);
-                    p = _mm_add_ps(p, _mm_mul_ps(lane(w[2], k), r));
-                    if G {
-                        q = _mm_add_ps(q, _mm_mul_ps(lane(d[2], k), r));
-                    }
-                }
-                let (wy, dy) = (lane(w[1], j), lane(d[1], j));
-                if j == 0 {
-                    acc = _mm_mul_ps(wy, p);
-                    if G {
-                        accy = _mm_mul_ps(dy, p);
-                        accz = _mm_mul_ps(wy, q);
-                    }
-                } else {
-                    acc = _mm_add_ps(acc, _mm_mul_ps(wy, p));
-                    if G {
-                        accy = _mm_add_ps(accy, _mm_mul_ps(dy, p));
-                        accz = _mm_add_ps(accz, _mm_mul_ps(wy, q));
-                    }
-                }
-            }
-            let wx = w[0];
-            let m0 = _mm_mul_ps(wx, acc);
-            if G {
-                let m1 = _mm_mul_ps(d[0], acc);
-                let m2 = _mm_mul_ps(wx, accy);
-                let m3 = _mm_mul_ps(wx, accz);
-                // Transpose so lane c of column i holds product i of sum c, then add the
-                // columns in order: lane c = ((m_c0 + m_c1) + m_c2) + m_c3.
-                let t0 = _mm_unpacklo_ps(m0, m1);
-                let t1 = _mm_unpacklo_ps(m2, m3);
-                let t2 = _mm_unpackhi_ps(m0, m1);
-                let t3 = _mm_unpackhi_ps(m2, m3);
-                let c0 = _mm_movelh_ps(t0, t1);
-                let c1 = _mm_movehl_ps(t1, t0);
-                let c2 = _mm_movelh_ps(t2, t3);
-                let c3 = _mm_movehl_ps(t3, t2);
-                let s = _mm_add_ps(_mm_add_ps(_mm_add_ps(c0, c1), c2), c3);
-                _mm_storeu_ps(out.as_mut_ptr(), s);
-            } else {
-                let s = _mm_add_ss(m0, _mm_shuffle_ps::<0b01>(m0, m0));
-                let s = _mm_add_ss(s, _mm_shuffle_ps::<0b10>(m0, m0));
-                let s = _mm_add_ss(s, _mm_shuffle_ps::<0b11>(m0, m0));
-                out[0] = _mm_cvtss_f32(s);
-            }
-        }
-        out
-    }
-}
-
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     extern crate std;
@@ -756,15 +508,10 @@ mod tests {
             // Rows (j, k) at j * 2 + k * 4 of a flat array, loaded as the volume path does.
             let flat: [f32; 8] = core::array::from_fn(|i| nb[i / 4][(i / 2) % 2][i % 2]);
             let short: [i16; 8] = flat.map(|x| x as i16);
-            // SAFETY: every pointer has two readable voxels after it.
-            let rows = unsafe {
-                if n % 2 == 0 {
-                    let p = flat.as_ptr();
-                    f32::load2x4(p, p.add(2), p.add(4), p.add(6))
-                } else {
-                    let p = short.as_ptr();
-                    i16::load2x4(p, p.add(2), p.add(4), p.add(6))
-                }
+            let rows = if n % 2 == 0 {
+                Supports::<f32, 2, 1>::new(&flat, [0], 2, 4).rows2(0)
+            } else {
+                Supports::<i16, 2, 1>::new(&short, [0], 2, 4).rows2(0)
             };
             let a = sse::sums2::<true>(rows, &w, &d);
             let b = sums::<2, true>(|j, k| nb[k][j], &w, &d);
@@ -799,9 +546,7 @@ mod tests {
             for j in 0..=1000 {
                 let a = j as f32 / 1000.0;
                 for c in &co {
-                    let mut v = [0.0f32; 4];
-                    // SAFETY: SSE is x86_64 baseline; the store writes 4 f32 to `v`.
-                    unsafe { core::arch::x86_64::_mm_storeu_ps(v.as_mut_ptr(), sse::horner(c, a)) };
+                    let v = sse::store(sse::horner(c, a));
                     assert_eq!(v.map(f32::to_bits), horner4(c, a).map(f32::to_bits));
                 }
             }
@@ -815,7 +560,7 @@ mod tests {
         use crate::affine::Affine4;
         use crate::kernel::{Bspln3, Ctmr};
         use crate::volume::Volume;
-        if !crate::avx::Simd::detect().avx2() {
+        if !Simd::detect().avx2() {
             std::eprintln!("skipped: this processor has no AVX2");
             return;
         }
@@ -824,12 +569,12 @@ mod tests {
             let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
             let vol = Volume::new(data, sizes, itow).unwrap();
             let c = Convo::<V, K, 4>::new(vol);
-            let mut sse = Convo::<V, K, 4>::new(vol);
-            assert!(c.avx);
-            sse.avx = false;
+            let sse =
+                Convo::<V, K, 4>::with_simd(vol, Simd::at_most(crate::simd::SimdLevel::Baseline));
+            assert!(c.simd.avx2());
             // AVX2 pairs also where the processor would use AVX-512 quads: both checked.
-            let mut pairs = Convo::<V, K, 4>::new(vol);
-            pairs.avx512 = false;
+            let pairs =
+                Convo::<V, K, 4>::with_simd(vol, Simd::at_most(crate::simd::SimdLevel::Avx2));
             for _ in 0..300 {
                 let n: [[i64; 3]; 8] = core::array::from_fn(|_| {
                     core::array::from_fn(|a| (g.next().abs() * 97.0) as i64 % (sizes[a] as i64 - 3))

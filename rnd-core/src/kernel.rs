@@ -10,7 +10,6 @@ use core::str::FromStr;
 use num_traits::Float;
 
 use crate::error::{Error, ErrorKind};
-use crate::math;
 
 #[inline(always)]
 fn c<T: Float>(x: f64) -> T {
@@ -90,7 +89,7 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
         let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
         let r = (y + ROUND) - ROUND;
         let f = r - if r > y { 1.0 } else { 0.0 };
-        (math::trunc_i64(f), x - f)
+        (crate::simd::trunc_i64(f), x - f)
     }
 }
 

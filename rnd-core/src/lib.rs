@@ -33,13 +33,13 @@
 //! ```
 #![no_std]
 #![warn(missing_docs)]
+#![deny(unsafe_code)]
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 extern crate alloc;
 
 pub mod affine;
 pub(crate) mod arith;
-pub mod avx;
 pub mod blend;
 pub mod camera;
 pub mod convo;
@@ -52,6 +52,8 @@ pub mod probe;
 pub mod refarith;
 pub mod render;
 pub mod sdg;
+#[allow(unsafe_code)]
+pub mod simd;
 pub mod skip;
 pub mod txf;
 pub mod volume;

@@ -101,7 +101,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         match (mode, self.spec.need_grad, wide) {
             (Loop::OneSample, true, _) => self.run::<true, 1>(hi, vi, out, trace),
             (Loop::OneSample, false, _) => self.run::<false, 1>(hi, vi, out, trace),
-            (Loop::Batched, g, wide) => crate::avx::wide(self.spec.simd, {
+            (Loop::Batched, g, wide) => crate::simd::wide(self.spec.simd, {
                 #[inline(always)]
                 || match (g, wide) {
                     (true, false) => self.run::<true, 8>(hi, vi, out, trace),

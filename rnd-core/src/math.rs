@@ -136,23 +136,6 @@ pub mod v3 {
     }
 }
 
-/// `y` truncated toward zero, for |y| < 2^63 (outside that, some wrong but defined
-/// value: callers range-check first). On x86_64 one instruction, without the saturation
-/// handling of `as`.
-#[inline(always)]
-pub(crate) fn trunc_i64(y: f64) -> i64 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: SSE2 is part of the x86_64 baseline; the conversion has no
-        // preconditions (out of range and NaN give i64::MIN).
-        unsafe { core::arch::x86_64::_mm_cvttsd_si64(core::arch::x86_64::_mm_set_sd(y)) }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        y as i64
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

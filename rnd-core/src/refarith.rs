@@ -37,6 +37,7 @@ use crate::camera::CameraSpec;
 use crate::kernel::Kernel;
 use crate::light::Light;
 use crate::math;
+use crate::simd::LaneBatch;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 use alloc::vec::Vec;
@@ -447,8 +448,7 @@ pub(crate) fn index_line(
     Some(line)
 }
 
-/// Samples convolved together by [`Lanes::convolve`].
-pub const LANES: usize = 16;
+pub use crate::simd::LANES;
 
 /// Up to [`LANES`] samples convolved together in reference arithmetic: every lane does
 /// exactly the operations of [`convolve`] for its sample (so the same bits), and the
@@ -525,308 +525,18 @@ impl<const S: usize> Lanes<S> {
     }
 
     /// Convolves the batch: `out[l]` is lane l's value and (with `G`) index gradient,
-    /// bit for bit what [`convolve`] gives for that sample.
+    /// bit for bit what [`convolve`] gives for that sample, at the widest vector level
+    /// `simd` allows.
     #[inline]
     pub fn convolve<V: Voxel, K: Kernel<S>, const G: bool>(
         &self,
         vol: &Volume<'_, V>,
-        simd: crate::avx::Simd,
+        simd: crate::simd::Simd,
         out: &mut [[f32; 4]; LANES],
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if S == 4 && simd.avx512() {
-            // SAFETY: the processor and operating system support AVX-512F.
-            unsafe { self.convolve_avx512::<V, K, G>(vol, out) };
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if simd.avx2() {
-            // SAFETY: the processor and operating system support AVX2.
-            unsafe { self.convolve_avx2::<V, K, G>(vol, out) };
-            return;
-        }
-        self.convolve_lanes::<V, K, G>(vol, out);
-    }
-
-    /// [`Lanes::convolve`] for support 4 compiled for AVX-512F: all sixteen lanes in one
-    /// register (the same operations, no fused multiply-add), rows of four voxels read
-    /// four lanes per load and transposed into lanes.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn convolve_avx512<V: Voxel, K: Kernel<S>, const G: bool>(
-        &self,
-        vol: &Volume<'_, V>,
-        out: &mut [[f32; 4]; LANES],
-    ) {
-        let (w, dw, base) = self.setup::<V, K, G>(vol);
-        // SAFETY: AVX-512F is enabled here, S is 4 (caller), and `setup` checked every
-        // lane's support.
-        let sums = unsafe { sums4_avx512::<V, S, G>(vol, &base, &w, &dw) };
-        store(&sums, out);
-    }
-
-    /// [`Lanes::convolve`] compiled for AVX2 (eight lanes per register; the same
-    /// operations, no fused multiply-add). Support 4 reads each lane's rows of four
-    /// voxels with one load and transposes them into lanes.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn convolve_avx2<V: Voxel, K: Kernel<S>, const G: bool>(
-        &self,
-        vol: &Volume<'_, V>,
-        out: &mut [[f32; 4]; LANES],
-    ) {
-        let (w, dw, base) = self.setup::<V, K, G>(vol);
-        let sums = if S == 4 {
-            // SAFETY: AVX2 is enabled here; `setup` checked every lane's support.
-            unsafe { sums4_avx2::<V, S, G>(vol, &base, &w, &dw) }
-        } else {
-            sums_lanes::<V, S, G>(vol, &base, &w, &dw)
-        };
-        store(&sums, out);
-    }
-
-    #[inline(always)]
-    fn convolve_lanes<V: Voxel, K: Kernel<S>, const G: bool>(
-        &self,
-        vol: &Volume<'_, V>,
-        out: &mut [[f32; 4]; LANES],
-    ) {
-        let (w, dw, base) = self.setup::<V, K, G>(vol);
-        store(&sums_lanes::<V, S, G>(vol, &base, &w, &dw), out);
-    }
-
-    /// Each lane's weights (and derivative weights with `G`), as `convolve` computes
-    /// them, and first support sample (unused lanes repeat lane 0's); checks that
-    /// every lane's whole support is in the data.
-    #[inline(always)]
-    #[allow(clippy::type_complexity)]
-    fn setup<V: Voxel, K: Kernel<S>, const G: bool>(
-        &self,
-        vol: &Volume<'_, V>,
-    ) -> (
-        [[[f32; LANES]; S]; 3],
-        [[[f32; LANES]; S]; 3],
-        [usize; LANES],
-    ) {
-        let mut w = [[[0.0f32; LANES]; S]; 3];
-        let mut dw = [[[0.0f32; LANES]; S]; 3];
-        for a in 0..3 {
-            for i in 0..S {
-                let c = (K::LO + i as i32) as f32;
-                for l in 0..LANES {
-                    let x = self.al[a][l] - c;
-                    w[a][i][l] = K::k_ref(x);
-                    if G {
-                        dw[a][i][l] = K::d1_ref(x);
-                    }
-                }
-            }
-        }
-        let sz = vol.sizes();
-        let (s0, s01) = (sz[0], sz[0] * sz[1]);
-        let base: [usize; LANES] = core::array::from_fn(|l| {
-            if l < self.len {
-                self.base[l]
-            } else {
-                self.base[0]
-            }
-        });
-        // `push` placed every support inside the volume; the sums rely on it.
-        let last = (S - 1) * (1 + s0 + s01);
-        let n = vol.data().len();
-        assert!(self.len > 0 && base.iter().all(|&b| b + last < n));
-        (w, dw, base)
-    }
-}
-
-/// The lanes' running sums (value, then the gradient's three with `G`), each term
-/// ((v·w₀)·w₁)·w₂ with one factor a derivative weight for the gradient, z slowest and x
-/// fastest: `convolve`'s operations, lane by lane.
-#[inline(always)]
-fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
-    vol: &Volume<'_, V>,
-    base: &[usize; LANES],
-    w: &[[[f32; LANES]; S]; 3],
-    dw: &[[[f32; LANES]; S]; 3],
-) -> [[f32; LANES]; 4] {
-    let sz = vol.sizes();
-    let (s0, s01) = (sz[0], sz[0] * sz[1]);
-    let data = vol.data();
-    let mut r = [[0.0f32; LANES]; 4];
-    for k in 0..S {
-        for j in 0..S {
-            for i in 0..S {
-                let o = i + j * s0 + k * s01;
-                for l in 0..LANES {
-                    // SAFETY: base[l] + o lies in the support `setup` checked.
-                    let x = unsafe { data.get_unchecked(base[l] + o) }.to_f32();
-                    let xw0 = x * w[0][i][l];
-                    r[0][l] += xw0 * w[1][j][l] * w[2][k][l];
-                    if G {
-                        r[1][l] += x * dw[0][i][l] * w[1][j][l] * w[2][k][l];
-                        r[2][l] += xw0 * dw[1][j][l] * w[2][k][l];
-                        r[3][l] += xw0 * w[1][j][l] * dw[2][k][l];
-                    }
-                }
-            }
-        }
-    }
-    r
-}
-
-/// [`sums_lanes`] for support 4 with AVX2: each lane's row of four voxels is one load
-/// (two lanes per register, see [`Voxel::load4x2`]), a 4 × 4 transpose in each 128-bit
-/// half turns rows into lanes, and the arithmetic is the same per lane.
-///
-/// # Safety
-/// The CPU must support AVX2, `S` must be 4, and every lane's support (from `base`)
-/// must lie in the volume's data.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
-    vol: &Volume<'_, V>,
-    base: &[usize; LANES],
-    w: &[[[f32; LANES]; S]; 3],
-    dw: &[[[f32; LANES]; S]; 3],
-) -> [[f32; LANES]; 4] {
-    use core::arch::x86_64::*;
-    // Registers of eight lanes each; their chains are independent, so with two the
-    // additions of one hide the latency of the other's.
-    const H: usize = LANES / 8;
-    assert!(S == 4 && LANES.is_multiple_of(8));
-    let sz = vol.sizes();
-    let (s0, s01) = (sz[0], sz[0] * sz[1]);
-    let ptr = vol.data().as_ptr();
-    let ld = |v: &[f32; LANES], h: usize| {
-        // SAFETY: eight readable floats from lane 8 h on.
-        unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * h)) }
-    };
-    let zero = _mm256_setzero_ps();
-    let mut val = [zero; H];
-    let (mut g0, mut g1, mut g2) = ([zero; H], [zero; H], [zero; H]);
-    for k in 0..S {
-        for j in 0..S {
-            let o = j * s0 + k * s01;
-            // Rows of lanes l and l + 4 of register h, transposed into lanes.
-            let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
-                // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
-                let row = |l: usize| unsafe {
-                    V::load4x2([
-                        ptr.add(base[8 * h + l] + o),
-                        ptr.add(base[8 * h + l + 4] + o),
-                    ])
-                };
-                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
-                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
-                [
-                    _mm256_shuffle_ps::<0x44>(t0, t2),
-                    _mm256_shuffle_ps::<0xEE>(t0, t2),
-                    _mm256_shuffle_ps::<0x44>(t1, t3),
-                    _mm256_shuffle_ps::<0xEE>(t1, t3),
-                ]
-            });
-            for i in 0..S {
-                for h in 0..H {
-                    let (w1, w2) = (ld(&w[1][j], h), ld(&w[2][k], h));
-                    let xw0 = _mm256_mul_ps(x[h][i], ld(&w[0][i], h));
-                    val[h] = _mm256_add_ps(val[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
-                    if G {
-                        let (d1, d2) = (ld(&dw[1][j], h), ld(&dw[2][k], h));
-                        let xd0 = _mm256_mul_ps(x[h][i], ld(&dw[0][i], h));
-                        g0[h] = _mm256_add_ps(g0[h], _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
-                        g1[h] = _mm256_add_ps(g1[h], _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
-                        g2[h] = _mm256_add_ps(g2[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
-                    }
-                }
-            }
-        }
-    }
-    let mut r = [[0.0f32; LANES]; 4];
-    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
-        for (h, v) in v.into_iter().enumerate() {
-            // SAFETY: eight writable floats from lane 8 h on.
-            unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
-        }
-    }
-    r
-}
-
-/// [`sums4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
-/// rows each (lanes l, l + 4, l + 8 and l + 12 in the four 128-bit parts, see
-/// [`Voxel::load4x4`]) and a 4 × 4 transpose in each part give each row element for all
-/// lanes in order; the arithmetic per lane is [`sums_lanes`]'s.
-///
-/// # Safety
-/// The CPU must support AVX-512F, `S` must be 4, and every lane's support (from `base`)
-/// must lie in the volume's data.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
-    vol: &Volume<'_, V>,
-    base: &[usize; LANES],
-    w: &[[[f32; LANES]; S]; 3],
-    dw: &[[[f32; LANES]; S]; 3],
-) -> [[f32; LANES]; 4] {
-    use core::arch::x86_64::*;
-    assert!(S == 4 && LANES == 16);
-    let sz = vol.sizes();
-    let (s0, s01) = (sz[0], sz[0] * sz[1]);
-    let ptr = vol.data().as_ptr();
-    let ld = |v: &[f32; LANES]| {
-        // SAFETY: sixteen readable floats.
-        unsafe { _mm512_loadu_ps(v.as_ptr()) }
-    };
-    let mut val = _mm512_setzero_ps();
-    let (mut g0, mut g1, mut g2) = (val, val, val);
-    for k in 0..S {
-        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
-        for j in 0..S {
-            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
-            let o = j * s0 + k * s01;
-            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (caller).
-            let row = |l: usize| unsafe {
-                V::load4x4([
-                    ptr.add(base[l] + o),
-                    ptr.add(base[l + 4] + o),
-                    ptr.add(base[l + 8] + o),
-                    ptr.add(base[l + 12] + o),
-                ])
-            };
-            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-            let (t0, t1) = (_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
-            let (t2, t3) = (_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
-            let x = [
-                _mm512_shuffle_ps::<0x44>(t0, t2),
-                _mm512_shuffle_ps::<0xEE>(t0, t2),
-                _mm512_shuffle_ps::<0x44>(t1, t3),
-                _mm512_shuffle_ps::<0xEE>(t1, t3),
-            ];
-            for (i, &xi) in x.iter().enumerate() {
-                let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
-                val = _mm512_add_ps(val, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), w2));
-                if G {
-                    let xd0 = _mm512_mul_ps(xi, ld(&dw[0][i]));
-                    g0 = _mm512_add_ps(g0, _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
-                    g1 = _mm512_add_ps(g1, _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
-                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), d2));
-                }
-            }
-        }
-    }
-    let mut r = [[0.0f32; LANES]; 4];
-    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
-        // SAFETY: sixteen writable floats.
-        unsafe { _mm512_storeu_ps(dst.as_mut_ptr(), v) };
-    }
-    r
-}
-
-/// Lane-major sums into per-sample results.
-#[inline(always)]
-fn store(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
-    for l in 0..LANES {
-        out[l] = [r[0][l], r[1][l], r[2][l], r[3][l]];
+        let (base, al, len) = (&self.base, &self.al, self.len);
+        let batch = LaneBatch { vol, base, al, len };
+        crate::simd::lane_sums::<V, K, S, G>(simd, batch, out);
     }
 }
 
@@ -962,8 +672,8 @@ mod tests {
 #[cfg(test)]
 mod lane_tests {
     use super::*;
-    use crate::avx::{Simd, SimdLevel};
     use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Tent};
+    use crate::simd::{Simd, SimdLevel};
 
     /// Deterministic pseudo-random numbers in [0, 1).
     struct Lcg(u64);

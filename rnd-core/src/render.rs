@@ -5,7 +5,6 @@
 use alloc::vec::Vec;
 
 use crate::arith::{correct_alpha, ln_transparency, Reference, F64};
-use crate::avx::{Simd, SimdLevel};
 use crate::blend::Blend;
 use crate::camera::{Camera, CameraSpec};
 use crate::error::{Error, ErrorKind, Result};
@@ -14,6 +13,7 @@ use crate::light::{Light, Phong, WorldLights};
 use crate::march::{Loop, March, Trace};
 use crate::probe::Probe;
 use crate::refarith::{self, RefCamera};
+use crate::simd::{Simd, SimdLevel};
 use crate::skip::{SkipGrid, SkipKind, SkipPlan};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;

@@ -347,7 +347,7 @@ impl Lut {
         // f is in [0, len] (or NaN, for a NaN value): below 1 (and NaN) the entry is
         // 0, above it truncation is the floor.
         let i = if f >= 1.0 {
-            math::trunc_i64(f) as usize
+            crate::simd::trunc_i64(f) as usize
         } else {
             0
         };

@@ -146,8 +146,8 @@ pub fn human_bytes(b: u64) -> String {
 /// The vector level the environment asks for: `RND_AVX2=0` turns AVX2 and AVX-512 off,
 /// `RND_AVX512=0` AVX-512 (the same images, slower; for comparisons); otherwise the
 /// best there is. Lowered to what the processor has when a render starts.
-pub fn simd_level_from_env() -> rnd_core::avx::SimdLevel {
-    use rnd_core::avx::SimdLevel;
+pub fn simd_level_from_env() -> rnd_core::simd::SimdLevel {
+    use rnd_core::simd::SimdLevel;
     let off = |v: &str| std::env::var_os(v).is_some_and(|x| x == "0");
     if off("RND_AVX2") {
         SimdLevel::Baseline

@@ -45,7 +45,7 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         std::env::consts::ARCH,
         if cfg!(debug_assertions) { "on" } else { "off" },
         rnd_std::parallel::default_threads(),
-        rnd_core::avx::Simd::at_most(rnd_std::simd_level_from_env()).describe(),
+        rnd_core::simd::Simd::at_most(rnd_std::simd_level_from_env()).describe(),
     );
     Ok(())
 }

@@ -1,0 +1,356 @@
+//! The reference arithmetic's running sums of [`LANES`] samples side by side, one
+//! sample per f32 lane: every lane does exactly the operations of
+//! [`crate::refarith::convolve`] for its sample (so the same bits), and the lanes' chains
+//! of S³ dependent additions are independent, so they fill the vector registers.
+
+use crate::kernel::Kernel;
+use crate::voxel::Voxel;
+
+use super::Simd;
+
+/// Samples convolved together by [`crate::refarith::Lanes`].
+pub const LANES: usize = 16;
+
+/// Kernel weights per axis, support index and lane.
+pub(crate) type LaneWeights<const S: usize> = [[[f32; LANES]; S]; 3];
+
+/// Up to [`LANES`] samples of a volume: the flat index of each one's first support
+/// voxel (inside the volume, by the caller's inside rule), its fractional offsets per
+/// axis, and how many lanes are taken (at least one).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LaneBatch<'a, V: Voxel> {
+    /// The volume's voxels and sizes.
+    pub(crate) vol: &'a crate::volume::Volume<'a, V>,
+    /// First support voxel of each lane.
+    pub(crate) base: &'a [usize; LANES],
+    /// Fractional offsets per axis and lane.
+    pub(crate) al: &'a [[f32; LANES]; 3],
+    /// Lanes taken.
+    pub(crate) len: usize,
+}
+
+impl<'a, V: Voxel> LaneBatch<'a, V> {
+    /// The supports, checked (unused lanes repeat lane 0), and the offsets.
+    #[inline(always)]
+    fn supports<const S: usize>(self) -> (LaneSupports<'a, V, S>, &'a [[f32; LANES]; 3]) {
+        assert!(self.len > 0, "convolving an empty batch");
+        let base = core::array::from_fn(|l| self.base[if l < self.len { l } else { 0 }]);
+        let sz = self.vol.sizes();
+        let sup = LaneSupports::new(self.vol.data(), base, sz[0], sz[0] * sz[1]);
+        (sup, self.al)
+    }
+}
+
+/// The S×S×S supports of [`LANES`] samples in a volume's data (x fastest, rows `s0`
+/// voxels apart, slices `s01` apart), checked once so that the sums read them without
+/// bounds checks.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LaneSupports<'d, V, const S: usize> {
+    data: &'d [V],
+    base: [usize; LANES],
+    s0: usize,
+    s01: usize,
+}
+
+impl<'d, V: Voxel, const S: usize> LaneSupports<'d, V, S> {
+    /// The supports whose first voxels are `base`; panics when one does not end inside
+    /// `data`.
+    #[inline(always)]
+    pub(crate) fn new(data: &'d [V], base: [usize; LANES], s0: usize, s01: usize) -> Self {
+        let last = (S - 1) * (1 + s0 + s01);
+        let end = data.len().saturating_sub(last);
+        assert!(base.iter().all(|&b| b < end));
+        LaneSupports {
+            data,
+            base,
+            s0,
+            s01,
+        }
+    }
+}
+
+/// The lanes' running sums [value, ∂x, ∂y, ∂z] (the gradient only with `G`) into `out`
+/// (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level `simd` allows: AVX-512F for support 4
+/// (all lanes in one register), AVX2 (eight lanes per register; support 4 reads rows
+/// with one load each), else portable code. The weights are computed in the code
+/// compiled for the level, so that they vectorize too.
+#[inline(always)]
+pub(crate) fn lane_sums<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    simd: Simd,
+    batch: LaneBatch<'_, V>,
+    out: &mut [[f32; 4]; LANES],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if S == 4 && simd.avx512() {
+        // SAFETY: a `Simd` of level AVX-512 exists only where it is supported.
+        return unsafe { with_avx512::<V, K, S, G>(batch, out) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() {
+        // SAFETY: a `Simd` of level AVX2 exists only where it is supported.
+        return unsafe { with_avx2::<V, K, S, G>(batch, out) };
+    }
+    let _ = simd;
+    let (sup, al) = batch.supports::<S>();
+    let (w, dw) = weights::<K, S, G>(al);
+    store(&sums_lanes::<V, S, G>(&sup, &w, &dw), out);
+}
+
+/// Each lane's weights (and derivative weights with `G`) per axis and support index,
+/// as [`crate::refarith::convolve`] computes them.
+#[inline(always)]
+fn weights<K: Kernel<S>, const S: usize, const G: bool>(
+    al: &[[f32; LANES]; 3],
+) -> (LaneWeights<S>, LaneWeights<S>) {
+    let mut w = [[[0.0f32; LANES]; S]; 3];
+    let mut dw = [[[0.0f32; LANES]; S]; 3];
+    for a in 0..3 {
+        for i in 0..S {
+            let c = (K::LO + i as i32) as f32;
+            for l in 0..LANES {
+                let x = al[a][l] - c;
+                w[a][i][l] = K::k_ref(x);
+                if G {
+                    dw[a][i][l] = K::d1_ref(x);
+                }
+            }
+        }
+    }
+    (w, dw)
+}
+
+/// Lane-major sums into per-sample results.
+#[inline(always)]
+fn store(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
+    for l in 0..LANES {
+        out[l] = [r[0][l], r[1][l], r[2][l], r[3][l]];
+    }
+}
+
+/// [`lane_sums`] compiled for AVX-512F (support 4).
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    batch: LaneBatch<'_, V>,
+    out: &mut [[f32; 4]; LANES],
+) {
+    let (sup, al) = batch.supports::<S>();
+    let (w, dw) = weights::<K, S, G>(al);
+    // SAFETY: AVX-512F is enabled here.
+    store(&unsafe { sums4_avx512::<V, S, G>(&sup, &w, &dw) }, out);
+}
+
+/// [`lane_sums`] compiled for AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    batch: LaneBatch<'_, V>,
+    out: &mut [[f32; 4]; LANES],
+) {
+    let (sup, al) = batch.supports::<S>();
+    let (w, dw) = weights::<K, S, G>(al);
+    let sums = if S == 4 {
+        // SAFETY: AVX2 is enabled here.
+        unsafe { sums4_avx2::<V, S, G>(&sup, &w, &dw) }
+    } else {
+        sums_lanes::<V, S, G>(&sup, &w, &dw)
+    };
+    store(&sums, out);
+}
+
+/// The lanes' running sums (value, then the gradient's three with `G`), each term
+/// ((v·w₀)·w₁)·w₂ with one factor a derivative weight for the gradient, z slowest and x
+/// fastest: `convolve`'s operations, lane by lane.
+#[inline(always)]
+fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+) -> [[f32; LANES]; 4] {
+    let LaneSupports {
+        data,
+        base,
+        s0,
+        s01,
+    } = *sup;
+    let mut r = [[0.0f32; LANES]; 4];
+    for k in 0..S {
+        for j in 0..S {
+            for i in 0..S {
+                let o = i + j * s0 + k * s01;
+                for l in 0..LANES {
+                    // SAFETY: base[l] + o lies in lane l's support, checked in `LaneSupports::new`.
+                    let x = unsafe { data.get_unchecked(base[l] + o) }.to_f32();
+                    let xw0 = x * w[0][i][l];
+                    r[0][l] += xw0 * w[1][j][l] * w[2][k][l];
+                    if G {
+                        r[1][l] += x * dw[0][i][l] * w[1][j][l] * w[2][k][l];
+                        r[2][l] += xw0 * dw[1][j][l] * w[2][k][l];
+                        r[3][l] += xw0 * w[1][j][l] * dw[2][k][l];
+                    }
+                }
+            }
+        }
+    }
+    r
+}
+
+/// [`sums_lanes`] for support 4 with AVX2: each lane's row of four voxels is one load
+/// (two lanes per register, see `Load::load4x2`), a 4 × 4 transpose in each 128-bit
+/// half turns rows into lanes, and the arithmetic is the same per lane.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    // Registers of eight lanes each; their chains are independent, so with two the
+    // additions of one hide the latency of the other's.
+    const H: usize = LANES / 8;
+    assert!(S == 4 && LANES.is_multiple_of(8));
+    let LaneSupports {
+        data,
+        base,
+        s0,
+        s01,
+    } = *sup;
+    let ptr = data.as_ptr();
+    let ld = |v: &[f32; LANES], h: usize| {
+        // SAFETY: eight readable floats from lane 8 h on.
+        unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * h)) }
+    };
+    let zero = _mm256_setzero_ps();
+    let mut val = [zero; H];
+    let (mut g0, mut g1, mut g2) = ([zero; H], [zero; H], [zero; H]);
+    for k in 0..S {
+        for j in 0..S {
+            let o = j * s0 + k * s01;
+            // Rows of lanes l and l + 4 of register h, transposed into lanes.
+            let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
+                // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
+                // `LaneSupports::new`; S is 4).
+                let row = |l: usize| unsafe {
+                    V::load4x2([
+                        ptr.add(base[8 * h + l] + o),
+                        ptr.add(base[8 * h + l + 4] + o),
+                    ])
+                };
+                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
+                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
+                [
+                    _mm256_shuffle_ps::<0x44>(t0, t2),
+                    _mm256_shuffle_ps::<0xEE>(t0, t2),
+                    _mm256_shuffle_ps::<0x44>(t1, t3),
+                    _mm256_shuffle_ps::<0xEE>(t1, t3),
+                ]
+            });
+            for i in 0..S {
+                for h in 0..H {
+                    let (w1, w2) = (ld(&w[1][j], h), ld(&w[2][k], h));
+                    let xw0 = _mm256_mul_ps(x[h][i], ld(&w[0][i], h));
+                    val[h] = _mm256_add_ps(val[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
+                    if G {
+                        let (d1, d2) = (ld(&dw[1][j], h), ld(&dw[2][k], h));
+                        let xd0 = _mm256_mul_ps(x[h][i], ld(&dw[0][i], h));
+                        g0[h] = _mm256_add_ps(g0[h], _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
+                        g1[h] = _mm256_add_ps(g1[h], _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
+                        g2[h] = _mm256_add_ps(g2[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
+                    }
+                }
+            }
+        }
+    }
+    let mut r = [[0.0f32; LANES]; 4];
+    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
+        for (h, v) in v.into_iter().enumerate() {
+            // SAFETY: eight writable floats from lane 8 h on.
+            unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
+        }
+    }
+    r
+}
+
+/// [`sums4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
+/// rows each (lanes l, l + 4, l + 8 and l + 12 in the four 128-bit parts, see
+/// `Load::load4x4`) and a 4 × 4 transpose in each part give each row element for all
+/// lanes in order; the arithmetic per lane is [`sums_lanes`]'s.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    assert!(S == 4 && LANES == 16);
+    let LaneSupports {
+        data,
+        base,
+        s0,
+        s01,
+    } = *sup;
+    let ptr = data.as_ptr();
+    let ld = |v: &[f32; LANES]| {
+        // SAFETY: sixteen readable floats.
+        unsafe { _mm512_loadu_ps(v.as_ptr()) }
+    };
+    let mut val = _mm512_setzero_ps();
+    let (mut g0, mut g1, mut g2) = (val, val, val);
+    for k in 0..S {
+        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+        for j in 0..S {
+            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
+            let o = j * s0 + k * s01;
+            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
+            // `LaneSupports::new`; S is 4).
+            let row = |l: usize| unsafe {
+                V::load4x4([
+                    ptr.add(base[l] + o),
+                    ptr.add(base[l + 4] + o),
+                    ptr.add(base[l + 8] + o),
+                    ptr.add(base[l + 12] + o),
+                ])
+            };
+            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+            let (t0, t1) = (_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
+            let (t2, t3) = (_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
+            let x = [
+                _mm512_shuffle_ps::<0x44>(t0, t2),
+                _mm512_shuffle_ps::<0xEE>(t0, t2),
+                _mm512_shuffle_ps::<0x44>(t1, t3),
+                _mm512_shuffle_ps::<0xEE>(t1, t3),
+            ];
+            for (i, &xi) in x.iter().enumerate() {
+                let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
+                val = _mm512_add_ps(val, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), w2));
+                if G {
+                    let xd0 = _mm512_mul_ps(xi, ld(&dw[0][i]));
+                    g0 = _mm512_add_ps(g0, _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
+                    g1 = _mm512_add_ps(g1, _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
+                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), d2));
+                }
+            }
+        }
+    }
+    let mut r = [[0.0f32; LANES]; 4];
+    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
+        // SAFETY: sixteen writable floats.
+        unsafe { _mm512_storeu_ps(dst.as_mut_ptr(), v) };
+    }
+    r
+}

@@ -1,0 +1,293 @@
+//! Every vector instruction of `rnd-core`, and the only module with `unsafe` code
+//! (`unsafe_code` is denied elsewhere).
+//!
+//! - [`Simd`]: the vector level, chosen once per render and passed down (no global).
+//! - `load`: voxel rows to f32 lanes (SSE2, AVX2, AVX-512F), for `f32` and `i16`.
+//! - `sse`: the support-2 and support-4 sums of one sample in SSE registers, and four
+//!   world-space gradient magnitudes at once (the f64 engine, [`crate::convo`]).
+//! - `cubic`: the support-4 sums of two (AVX2) or four (AVX-512) samples at once, one
+//!   sample per 128-bit lane, lane for lane the SSE operations.
+//! - `lanes`: the reference arithmetic's running sums of [`LANES`] samples side by
+//!   side, one sample per f32 lane ([`crate::refarith::Lanes`]).
+//!
+//! Voxels are read without bounds checks only through `Supports` and
+//! `lanes::LaneSupports`, whose constructors check every support against the data. Every
+//! path performs the same f32 operations in the same order as the portable code (no
+//! fused multiply-add), so images are the same bits at every level.
+
+/// A vector instruction level asked for (e.g. `RenderParams::simd`); [`Simd::at_most`]
+/// turns it into one this processor runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub enum SimdLevel {
+    /// The baseline of the target (SSE2 on x86_64), or portable code.
+    Baseline,
+    /// AVX2 (x86_64).
+    Avx2,
+    /// AVX2 and AVX-512F (x86_64): the best there is.
+    #[default]
+    Avx512,
+}
+
+/// A vector instruction level this processor and operating system support, chosen once
+/// per render and passed down to every convolution sum (no global state). Only
+/// [`Simd::detect`] and [`Simd::at_most`] make one, so holding it proves the support.
+/// Images are the same bits at every level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Simd(SimdLevel);
+
+impl Simd {
+    /// The best level this processor and operating system support.
+    pub fn detect() -> Simd {
+        Simd(match detect() {
+            3 => SimdLevel::Avx512,
+            2 => SimdLevel::Avx2,
+            _ => SimdLevel::Baseline,
+        })
+    }
+
+    /// `level`, or the best supported level below it.
+    pub fn at_most(level: SimdLevel) -> Simd {
+        Simd(level.min(Simd::detect().0))
+    }
+
+    /// The level.
+    pub fn level(self) -> SimdLevel {
+        self.0
+    }
+
+    /// Whether the AVX2 paths run at this level.
+    #[inline(always)]
+    pub fn avx2(self) -> bool {
+        self.0 >= SimdLevel::Avx2
+    }
+
+    /// Whether the AVX-512 paths run at this level.
+    #[inline(always)]
+    pub fn avx512(self) -> bool {
+        self.0 >= SimdLevel::Avx512
+    }
+
+    /// What the level uses, for people ("SSE2, AVX2", ...).
+    pub fn describe(self) -> &'static str {
+        match (self.0, cfg!(target_arch = "x86_64")) {
+            (_, false) => "none (portable code)",
+            (SimdLevel::Baseline, true) => "SSE2",
+            (SimdLevel::Avx2, true) => "SSE2, AVX2",
+            (SimdLevel::Avx512, true) => "SSE2, AVX2, AVX-512",
+        }
+    }
+}
+
+/// Runs `f` compiled for the widest level `simd` allows where the compiler inlines it
+/// (the ray loop's position and weight arithmetic over lanes; the same operations, no
+/// fused multiply-add, so the same bits).
+#[inline(always)]
+pub(crate) fn wide<R>(simd: Simd, f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() {
+        // SAFETY: a `Simd` of level AVX2 or above exists only where the processor and
+        // operating system support AVX2 (`Simd::detect`, `Simd::at_most`).
+        return unsafe { with_avx2(f) };
+    }
+    f()
+}
+
+/// `f()` in a function compiled with AVX2.
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+/// The best level the processor and operating system support (1, 2 or 3).
+#[cfg(target_arch = "x86_64")]
+fn detect() -> u8 {
+    use core::arch::x86_64::{__cpuid, __cpuid_count};
+    // CPUID leaf 1: OSXSAVE (ecx bit 27) and AVX (bit 28); XCR0 bits 1 and 2: the
+    // operating system saves SSE and AVX state; leaf 7: AVX2 (ebx bit 5), AVX-512F (ebx
+    // bit 16), whose state (XCR0 bits 5 to 7) the system must save too.
+    #[allow(unused_unsafe)]
+    // SAFETY: CPUID exists on every x86_64 processor.
+    let (max, l1) = unsafe { (__cpuid(0).eax, __cpuid(1)) };
+    if max < 7 || l1.ecx & (1 << 27) == 0 || l1.ecx & (1 << 28) == 0 {
+        return 1;
+    }
+    // SAFETY: OSXSAVE is set, so XGETBV is available.
+    let xcr0 = unsafe { xcr0() };
+    if xcr0 & 6 != 6 {
+        return 1;
+    }
+    #[allow(unused_unsafe)]
+    // SAFETY: as above; leaf 7 exists (max >= 7).
+    let l7 = unsafe { __cpuid_count(7, 0) };
+    match (
+        l7.ebx & (1 << 5) != 0,
+        l7.ebx & (1 << 16) != 0 && xcr0 & 0xE0 == 0xE0,
+    ) {
+        (true, true) => 3,
+        (true, false) => 2,
+        _ => 1,
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn detect() -> u8 {
+    1
+}
+
+/// The extended control register XCR0.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "xsave")]
+unsafe fn xcr0() -> u64 {
+    // SAFETY: the caller checked that the OS enabled XGETBV (OSXSAVE).
+    unsafe { core::arch::x86_64::_xgetbv(0) }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod cubic;
+mod lanes;
+mod load;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod sse;
+
+pub use lanes::LANES;
+pub(crate) use lanes::{lane_sums, LaneBatch};
+pub(crate) use load::Load;
+
+/// `y` truncated toward zero, for |y| < 2^63 (outside that, some wrong but defined
+/// value: callers range-check first). On x86_64 one instruction, without the saturation
+/// handling of `as`.
+#[inline(always)]
+pub(crate) fn trunc_i64(y: f64) -> i64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE2 is part of the x86_64 baseline; the conversion has no
+        // preconditions (out of range and NaN give i64::MIN).
+        unsafe { core::arch::x86_64::_mm_cvttsd_si64(core::arch::x86_64::_mm_set_sd(y)) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        y as i64
+    }
+}
+
+/// The S×S×S supports of N samples in a volume's data (x fastest, rows `s0` voxels
+/// apart, slices `s01` apart), checked once to lie inside the data so that their voxels
+/// are then read without bounds checks.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Supports<'d, V, const S: usize, const N: usize> {
+    data: &'d [V],
+    base: [usize; N],
+    s0: usize,
+    s01: usize,
+}
+
+impl<'d, V: crate::voxel::Voxel, const S: usize, const N: usize> Supports<'d, V, S, N> {
+    /// The supports whose first voxels are `base`; panics when one does not end inside
+    /// `data` (the callers' inside rule makes them fit).
+    #[inline(always)]
+    pub(crate) fn new(data: &'d [V], base: [usize; N], s0: usize, s01: usize) -> Self {
+        let last = (S - 1) * (1 + s0 + s01);
+        let end = data.len().saturating_sub(last);
+        assert!(base.iter().all(|&b| b < end));
+        Supports {
+            data,
+            base,
+            s0,
+            s01,
+        }
+    }
+
+    /// Row `j` of slice `k` of sample `i`'s support (S voxels along x), as f32.
+    #[inline(always)]
+    pub(crate) fn row(&self, i: usize, j: usize, k: usize) -> [f32; S] {
+        assert!(j < S && k < S);
+        let o = self.base[i] + j * self.s0 + k * self.s01;
+        // SAFETY: o + S − 1 ≤ base[i] + (S − 1)(1 + s0 + s01), inside the data (`new`).
+        let r = unsafe { self.data.get_unchecked(o..o + S) };
+        core::array::from_fn(|x| r[x].to_f32())
+    }
+
+    /// [`Supports::row`] for support 4, as one SSE vector.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn row4(&self, i: usize, j: usize, k: usize) -> sse::F4 {
+        assert!(S == 4 && j < S && k < S);
+        let o = self.base[i] + j * self.s0 + k * self.s01;
+        // SAFETY: the four voxels from o end inside sample i's support, inside the data.
+        unsafe { V::load4(self.data.as_ptr().add(o)) }
+    }
+
+    /// The whole support of sample `i` for support 2, as two SSE vectors: rows (0, 0)
+    /// and (1, 0), then rows (0, 1) and (1, 1) (row (j, k): row j of slice k).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn rows2(&self, i: usize) -> [sse::F4; 2] {
+        assert!(S == 2);
+        let (s0, s01) = (self.s0, self.s01);
+        // SAFETY: the four rows of two voxels are the support of sample i, inside the
+        // data (`new`).
+        unsafe {
+            let p = self.data.as_ptr().add(self.base[i]);
+            V::load2x4(p, p.add(s0), p.add(s01), p.add(s0 + s01))
+        }
+    }
+
+    /// The support-4 sums of all N samples with AVX2 (two per register) or AVX-512F
+    /// (four), for fractional offsets `alpha` and the kernel's cubic coefficients `co`
+    /// (value, derivative), bit for bit what [`sse`] gives sample by sample. False (and
+    /// nothing written) when `simd` has no AVX2 or N is not a multiple of 4.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn cubic_sums<const G: bool>(
+        &self,
+        simd: Simd,
+        alpha: &[[f64; 3]; N],
+        co: &[[[f32; 4]; 4]; 2],
+        out: &mut [[f32; 4]; N],
+    ) -> bool {
+        if S != 4 || !simd.avx2() || !N.is_multiple_of(4) {
+            return false;
+        }
+        let (d, b) = (self.data, &self.base);
+        // SAFETY: AVX2 (and AVX-512F when asked) are supported (a `Simd` proves it), N
+        // is a multiple of 4, and every support was checked in `new`.
+        unsafe {
+            cubic::sums_pairs::<V, G, N>(d, b, self.s0, self.s01, alpha, co, simd.avx512(), out)
+        };
+        true
+    }
+}
+
+/// The support-4 sums of the N consecutive samples k, k + 1, … of the index-space ray
+/// `start + k step`, with AVX2 or AVX-512F, support starts `floor(x) + lo` and offsets
+/// `x − floor(x)` computed in f64 lanes as the scalar code does (so the same bits).
+/// Panics when a support is not inside `data`; false (nothing written) when `simd` has
+/// no AVX2 or N is not a multiple of 4.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cubic_run<V: crate::voxel::Voxel, const G: bool, const N: usize>(
+    simd: Simd,
+    data: &[V],
+    s0: usize,
+    s01: usize,
+    lo: i64,
+    start: &[f64; 3],
+    step: &[f64; 3],
+    k: u32,
+    co: &[[[f32; 4]; 4]; 2],
+    out: &mut [[f32; 4]; N],
+) -> bool {
+    if !simd.avx2() || !N.is_multiple_of(4) {
+        return false;
+    }
+    let wide = simd.avx512();
+    // SAFETY: the features are supported (a `Simd` proves it), N is a multiple of 4; the
+    // supports are checked inside.
+    unsafe { cubic::sums_run::<V, G, N>(data, s0, s01, lo, start, step, k, co, wide, out) };
+    true
+}
