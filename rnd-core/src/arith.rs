@@ -125,8 +125,13 @@ pub(crate) trait Arith {
     /// World-space gradient from an index-space one.
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3];
     /// World gradient magnitudes of sums `r`.
+    #[inline(always)]
     fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
-        r.map(|x| gmag(self.grad_world([x[1], x[2], x[3]])))
+        let mut out = [0.0f32; N];
+        for (o, x) in out.iter_mut().zip(r) {
+            *o = gmag(self.grad_world([x[1], x[2], x[3]]));
+        }
+        out
     }
     /// Opacity `a` corrected for the ray's step; `entry` is the LUT entry whose own
     /// opacity `a` is, when it is one (for per-entry tables).
