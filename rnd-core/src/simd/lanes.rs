@@ -41,38 +41,13 @@ impl<'a, V: Voxel> LaneBatch<'a, V> {
     }
 }
 
-/// The S×S×S supports of [`LANES`] samples in a volume's data (x fastest, rows `s0`
-/// voxels apart, slices `s01` apart), checked once so that the sums read them without
-/// bounds checks.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct LaneSupports<'d, V, const S: usize> {
-    data: &'d [V],
-    base: [usize; LANES],
-    s0: usize,
-    s01: usize,
-}
-
-impl<'d, V: Voxel, const S: usize> LaneSupports<'d, V, S> {
-    /// The supports whose first voxels are `base`; panics when one does not end inside
-    /// `data`.
-    #[inline(always)]
-    pub(crate) fn new(data: &'d [V], base: [usize; LANES], s0: usize, s01: usize) -> Self {
-        let last = (S - 1) * (1 + s0 + s01);
-        let end = data.len().saturating_sub(last);
-        assert!(base.iter().all(|&b| b < end));
-        LaneSupports {
-            data,
-            base,
-            s0,
-            s01,
-        }
-    }
-}
+/// The checked supports of a batch's lanes.
+type LaneSupports<'d, V, const S: usize> = super::Supports<'d, V, S, LANES>;
 
 /// The lanes' running sums [value, ∂x, ∂y, ∂z] (the gradient only with `G`) into `out`
-/// (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level `simd` allows: AVX-512F for support 4
-/// (all lanes in one register), AVX2 (eight lanes per register; support 4 reads rows
-/// with one load each), else portable code. The weights are computed in the code
+/// (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level
+/// `simd` allows: AVX-512F for support 4 (all lanes in one register), AVX2 (eight lanes
+/// per register; support 4 reads rows with one load each), else portable code. The weights are computed in the code
 /// compiled for the level, so that they vectorize too.
 #[inline(always)]
 pub(crate) fn lane_sums<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
@@ -185,7 +160,7 @@ fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
             for i in 0..S {
                 let o = i + j * s0 + k * s01;
                 for l in 0..LANES {
-                    // SAFETY: base[l] + o lies in lane l's support, checked in `LaneSupports::new`.
+                    // SAFETY: base[l] + o lies in lane l's support, checked in `Supports::new`.
                     let x = unsafe { data.get_unchecked(base[l] + o) }.to_f32();
                     let xw0 = x * w[0][i][l];
                     r[0][l] += xw0 * w[1][j][l] * w[2][k][l];
@@ -239,7 +214,7 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
             // Rows of lanes l and l + 4 of register h, transposed into lanes.
             let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
                 // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
-                // `LaneSupports::new`; S is 4).
+                // `Supports::new`; S is 4).
                 let row = |l: usize| unsafe {
                     V::load4x2([
                         ptr.add(base[8 * h + l] + o),
@@ -317,7 +292,7 @@ unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
             let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
             let o = j * s0 + k * s01;
             // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
-            // `LaneSupports::new`; S is 4).
+            // `Supports::new`; S is 4).
             let row = |l: usize| unsafe {
                 V::load4x4([
                     ptr.add(base[l] + o),

@@ -10,10 +10,10 @@
 //! - `lanes`: the reference arithmetic's running sums of [`LANES`] samples side by
 //!   side, one sample per f32 lane ([`crate::refarith::Lanes`]).
 //!
-//! Voxels are read without bounds checks only through `Supports` and
-//! `lanes::LaneSupports`, whose constructors check every support against the data. Every
-//! path performs the same f32 operations in the same order as the portable code (no
-//! fused multiply-add), so images are the same bits at every level.
+//! Voxels are read without bounds checks only through `Supports`, whose constructor
+//! checks every support against the data. Every path performs the same f32 operations
+//! in the same order as the portable code (no fused multiply-add), so images are the
+//! same bits at every level.
 
 /// A vector instruction level asked for (e.g. `RenderParams::simd`); [`Simd::at_most`]
 /// turns it into one this processor runs.
