@@ -9,6 +9,7 @@
 
 pub mod error;
 pub mod files;
+pub mod formats;
 pub mod image_out;
 pub mod nrrd;
 pub mod output;

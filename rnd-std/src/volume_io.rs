@@ -1,5 +1,6 @@
-//! NRRD → renderable volume: voxel storage (f32 or i16) plus index-to-world geometry,
-//! with the conversions of SPEC D11 recorded so `info` can report them.
+//! Volume file → renderable volume: voxel storage (f32 or i16) plus index-to-world
+//! geometry, with the conversions of SPEC D11 recorded so `info` can report them. Any
+//! format of [`crate::formats`] is read (NRRD, NIfTI, MetaImage, DICOM).
 
 use std::path::Path;
 
@@ -7,6 +8,7 @@ use rnd_core::affine::Affine4;
 use rnd_core::render::AnyVolume;
 use rnd_core::volume::Volume;
 
+use crate::formats::Format;
 use crate::nrrd::{self, Centering, Data, Nrrd};
 use crate::{Error, Result};
 
@@ -34,6 +36,8 @@ pub struct VolumeBuf {
     pub space: Option<String>,
     /// Conversions applied (D11), one sentence each; empty for a standard volume.
     pub notes: Vec<String>,
+    /// The format of the file it was read from.
+    pub format: Format,
 }
 
 impl VolumeBuf {
@@ -73,7 +77,7 @@ impl VolumeBuf {
     }
 }
 
-/// Loads a volume from a file (`-` = stdin).
+/// Loads a volume from a file (`-` = stdin) of any format rendr reads.
 pub fn load_volume(path: &Path) -> Result<VolumeBuf> {
     load_volume_threads(path, 1)
 }
@@ -81,8 +85,11 @@ pub fn load_volume(path: &Path) -> Result<VolumeBuf> {
 /// [`load_volume`], reading large raw data with `threads` threads at once (the same
 /// volume for any count).
 pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
-    let n = nrrd::read_with_threads(path, threads)?;
-    volume_from_nrrd(n).map_err(|e| e.with_path(path))
+    let l = crate::formats::read(path, threads)?;
+    let mut v = volume_from_nrrd(l.nrrd).map_err(|e| e.with_path(path))?;
+    v.format = l.format;
+    v.notes.splice(0..0, l.notes);
+    Ok(v)
 }
 
 /// Builds a volume from an in-memory NRRD.
@@ -228,6 +235,7 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         file_type,
         space,
         notes,
+        format: Format::Nrrd,
     };
     // Validate once so view() can't fail.
     match &vb.data {

@@ -47,6 +47,33 @@ pub fn teem(test: &str, prog: &str) -> bool {
     false
 }
 
+/// A Python interpreter with the test-only writers (nibabel, SimpleITK, pydicom):
+/// `$RENDR_PYTHON`, else `python3`; None (after printing "skipped") when it lacks them,
+/// unless `RENDR_REQUIRE_WRITERS=1` (CI, whose `.ci/run` makes the environment).
+pub fn writers(test: &str) -> Option<PathBuf> {
+    let py = std::env::var_os("RENDR_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("python3"));
+    let ok = Command::new(&py)
+        .args(["-c", "import nibabel, SimpleITK, pydicom, numpy"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if ok {
+        return Some(py);
+    }
+    if required("RENDR_REQUIRE_WRITERS") {
+        panic!(
+            "{test}: {} lacks nibabel/SimpleITK/pydicom/numpy and RENDR_REQUIRE_WRITERS=1",
+            py.display()
+        );
+    }
+    eprintln!(
+        "skipped: {test}: no Python with nibabel, SimpleITK, pydicom and numpy \
+         (set RENDR_PYTHON; .ci/run makes one)"
+    );
+    None
+}
+
 /// A fresh temporary directory for one test.
 pub fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rendr-test-{}-{name}", std::process::id()));

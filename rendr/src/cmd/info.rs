@@ -30,6 +30,13 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         let (lo, hi) = v.min_max();
         outln!("==============================");
         outln!("{f}");
+        if let Some(frame) = v.format.frame() {
+            outln!(
+                "read as {}; world coordinates in its {frame} frame ({})",
+                v.format.name(),
+                v.space.as_deref().unwrap_or("none")
+            );
+        }
         outln!(
             "{s0} by {s1} by {s2} volume with type {} voxels",
             v.type_name()

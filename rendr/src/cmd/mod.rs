@@ -24,6 +24,7 @@ macro_rules! with_camera_opts {
 mod about;
 mod cam;
 mod ceval;
+mod convert;
 mod go;
 mod info;
 mod keval;
@@ -108,6 +109,11 @@ pub static COMMANDS: &[Command] = &[
         run: info::run,
     },
     Command {
+        spec: &convert::SPEC,
+        aliases: &[],
+        run: convert::run,
+    },
+    Command {
         spec: &sdg::SPEC,
         aliases: &[],
         run: sdg::run,
@@ -132,13 +138,14 @@ pub fn content(cmd: &str, a: &Args) -> String {
 }
 
 /// Prepares output `path` of a command before any work: refused when it is the same
-/// file as one of `inputs` (a NRRD's detached data files included) or of the @files
+/// file as one of `inputs` (a NRRD's detached data files, a NIfTI pair's image, a MetaImage's data file, a
+/// DICOM series' slices included) or of the @files
 /// read; the directory is checked and the temporary file created now, so a wrong output
 /// is reported at once and a failed run leaves nothing behind.
 pub fn output(path: &str, a: &Args, inputs: &[&str]) -> anyhow::Result<rnd_std::output::Output> {
     let mut all: Vec<std::path::PathBuf> = a.response_files.clone();
     for i in inputs.iter().filter(|i| !i.is_empty() && **i != "x") {
-        all.extend(rnd_std::nrrd::input_files(std::path::Path::new(i)));
+        all.extend(rnd_std::formats::input_files(std::path::Path::new(i)));
     }
     Ok(rnd_std::output::Output::create(
         std::path::Path::new(path),

@@ -6,7 +6,7 @@
 //! memory) before anything is allocated.
 
 mod header;
-mod read;
+pub(crate) mod read;
 mod text;
 mod write;
 

@@ -47,7 +47,7 @@ pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
 
 /// Reads a NRRD or text array from any byte stream, bounded: the header up to
 /// [`HEADER_MAX`], the data up to [`data_limit_bytes`], a text array up to [`TEXT_MAX`].
-fn read_from(r: impl Read, dir: &Path, regular: bool) -> Result<Nrrd> {
+pub(crate) fn read_from(r: impl Read, dir: &Path, regular: bool) -> Result<Nrrd> {
     let mut r = std::io::BufReader::with_capacity(1 << 16, r);
     let head = r.fill_buf().map_err(read_error)?;
     if !head.starts_with(b"NRRD") {
@@ -1345,6 +1345,46 @@ fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Result<Data> {
     let mut d = from_f64(t, &[]);
     append(&mut d, &b[..n * t.size()], e, n)?;
     Ok(d)
+}
+
+/// Reads `n` samples of type `t` in byte order `e` from `r` (raw binary, the way NIfTI,
+/// MetaImage and DICOM store them), in pieces of at most 1 MiB so no second copy of the
+/// data is held. The memory is checked and reserved first; fewer bytes than needed is an
+/// error saying how many there were.
+pub(crate) fn read_samples(r: &mut dyn Read, t: ScalarType, e: Endian, n: usize) -> Result<Data> {
+    let total = n
+        .checked_mul(t.size())
+        .ok_or_else(|| Error::msg(format!("{n} samples of {t} overflow")))?;
+    check_memory(total, &format!("{n} samples of {t}"))?;
+    let mut d = from_f64(t, &[]);
+    reserve_all(&mut d, n)?;
+    let mut buf = vec![0u8; total.min(1 << 20)];
+    let mut done = 0usize;
+    while done < total {
+        let want = (total - done).min(buf.len());
+        let mut got = 0;
+        while got < want {
+            match r.read(&mut buf[got..want]) {
+                Ok(0) => {
+                    return Err(Error::msg(format!(
+                        "data is truncated: {} bytes of samples, need {total}",
+                        done + got
+                    )))
+                }
+                Ok(k) => got += k,
+                Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(err) => return Err(read_error(err)),
+            }
+        }
+        append(&mut d, &buf[..want], e, n)?;
+        done += want;
+    }
+    Ok(d)
+}
+
+/// Parses `n` whitespace-separated numbers as samples of type `t` (ASCII data).
+pub(crate) fn text_samples(t: ScalarType, text: &str, n: usize) -> Result<Data> {
+    ascii_data(t, text, n)
 }
 
 /// Centering helper for callers: per-axis centring or Unknown.

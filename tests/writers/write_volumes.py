@@ -1,0 +1,169 @@
+#!/usr/bin/env python3
+"""Writes test volumes with independent writers (nibabel, SimpleITK) for rendr's
+format tests (tests/tests/formats.rs).
+
+Usage: write_volumes.py OUTDIR
+
+For every case it writes the volume file(s), the values the writer itself reads back
+(float64, little-endian, fastest axis first: NAME.f64) and one manifest line
+(OUTDIR/manifest.txt, tab-separated):
+
+    name  file  sizes(3)  expected-type  affine(12, rows of the 3x4 index-to-world)
+
+The affine is the one the writer's own library reports for the file it wrote (nibabel's
+img.affine, SimpleITK's direction * spacing and origin), so the test compares rendr
+with the library, not with itself. expected-type is short, float or keep (the file's
+own type, as rendr converts it).
+"""
+import os
+import sys
+
+import numpy as np
+
+OUT = sys.argv[1]
+os.makedirs(OUT, exist_ok=True)
+manifest = []
+
+SIZES = (7, 6, 5)
+
+
+def field(dtype, scale=1.0, offset=0.0):
+    """A deterministic, non-symmetric test array (fastest axis first = Fortran order)."""
+    i, j, k = np.meshgrid(*[np.arange(s) for s in SIZES], indexing="ij")
+    v = (i * 7 + j * 13 + k * 29) % 97 - 40
+    return np.asarray(v * scale + offset).astype(dtype)
+
+
+def rot(ax, ay, az):
+    cx, sx, cy, sy, cz, sz = (np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay),
+                              np.cos(az), np.sin(az))
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def record(name, fname, values, kind, affine):
+    values = np.asarray(values, dtype="<f8")
+    assert values.shape == SIZES, (name, values.shape)
+    values.ravel(order="F").tofile(os.path.join(OUT, name + ".f64"))
+    a = np.asarray(affine, dtype=float)[:3, :4]
+    manifest.append("\t".join([name, fname, " ".join(map(str, SIZES)), kind,
+                               " ".join(repr(float(x)) for x in a.ravel())]))
+
+
+def nifti_cases():
+    import nibabel as nib
+
+    def save(name, fname, img, kind):
+        path = os.path.join(OUT, fname)
+        nib.save(img, path)
+        back = nib.load(path)
+        record(name, fname, back.get_fdata(dtype=np.float64), kind, back.affine)
+
+    obl = np.eye(4)
+    obl[:3, :3] = rot(0.3, -0.2, 0.5) @ np.diag([0.9, 1.1, 1.7])
+    obl[:3, 3] = [-12.5, 30.25, 7.0]
+
+    # sform only, oblique, short.
+    img = nib.Nifti1Image(field(np.int16), None)
+    img.set_sform(obl, code=1)
+    img.set_qform(None, code=0)
+    save("nii-sform", "sform.nii", img, "short")
+
+    # qform only, with a reflection (negative qfac), float, gzip.
+    ref = obl.copy()
+    ref[:3, 2] *= -1
+    img = nib.Nifti1Image(field(np.float32, 0.5), None)
+    img.set_qform(ref, code=1)
+    img.set_sform(None, code=0)
+    assert img.header["pixdim"][0] == -1, "qfac should be -1"
+    save("nii-qform-qfac", "qform.nii.gz", img, "float")
+
+    # Both: the sform (code 2) is used; uchar kept (converted to float by rendr).
+    img = nib.Nifti1Image(field(np.uint8, 1.0, 40.0), None)
+    img.set_qform(np.diag([2.0, 2.0, 2.0, 1.0]), code=1)
+    img.set_sform(obl, code=2)
+    save("nii-both", "both.nii", img, "keep")
+
+    # NIfTI-2, double, big-endian header and data.
+    hdr = nib.Nifti2Header(endianness=">")
+    img = nib.Nifti2Image(field(np.float64, 0.25), obl, header=hdr)
+    save("nii2", "two.nii", img, "keep")
+
+    # Header/image pair, short.
+    img = nib.Nifti1Pair(field(np.int16), obl)
+    save("nii-pair", "pair.hdr", img, "short")
+
+    # Rescale: integral (stays short) and fractional (becomes float).
+    for name, slope, inter, kind in [("nii-scl-int", 1.0, -1024.0, "short"),
+                                     ("nii-scl-frac", 0.5, 3.25, "float")]:
+        img = nib.Nifti1Image(field(np.int16, 1.0, 100.0), obl)
+        img.header.set_slope_inter(slope, inter)
+        img.set_data_dtype(np.int16)
+        # Keep the raw integers: write them through the array proxy's scaling.
+        path = os.path.join(OUT, name + ".nii")
+        hdr = img.header.copy()
+        hdr.set_data_dtype(np.int16)
+        hdr.set_slope_inter(slope, inter)
+        raw = field(np.int16, 1.0, 100.0)
+        with open(path, "wb") as f:
+            hdr.set_data_offset(352)
+            hdr.write_to(f)
+            f.write(b"\0" * (352 - f.tell()))
+            f.write(raw.astype(hdr.get_data_dtype()).tobytes(order="F"))
+        back = nib.load(path)
+        record(name, name + ".nii", back.get_fdata(dtype=np.float64), kind, back.affine)
+
+    # Axis-aligned, binary-fraction spacings: exact in every format (render test).
+    al = np.diag([0.5, 0.25, 2.0, 1.0])
+    al[:3, 3] = [-8.0, -4.0, 2.0]
+    img = nib.Nifti1Image(field(np.int16), al)
+    save("nii-aligned", "aligned.nii.gz", img, "short")
+
+
+def metaimage_cases():
+    import SimpleITK as sitk
+
+    def image(arr, spacing, origin, direction):
+        # SimpleITK arrays are (k, j, i).
+        im = sitk.GetImageFromArray(np.transpose(arr, (2, 1, 0)).copy())
+        im.SetSpacing(spacing)
+        im.SetOrigin(origin)
+        im.SetDirection(direction)
+        return im
+
+    def save(name, fname, im, kind, compress=False):
+        path = os.path.join(OUT, fname)
+        sitk.WriteImage(im, path, compress)
+        back = sitk.ReadImage(path)
+        vals = np.transpose(sitk.GetArrayFromImage(back), (2, 1, 0)).astype(np.float64)
+        d = np.array(back.GetDirection()).reshape(3, 3)
+        a = np.zeros((3, 4))
+        a[:, :3] = d @ np.diag(back.GetSpacing())
+        a[:, 3] = back.GetOrigin()
+        record(name, fname, vals, kind, a)
+
+    r = rot(-0.4, 0.25, 0.1)
+    direction = tuple(r.ravel())
+    save("mha-oblique", "oblique.mha",
+         image(field(np.int16), (0.7, 0.8, 1.5), (10.0, -20.5, 3.0), direction), "short")
+    save("mhd-float", "float.mhd",
+         image(field(np.float32, 0.5), (1.25, 1.0, 0.5), (-1.0, 2.0, -3.0), direction),
+         "float")
+    save("mha-zlib", "zlib.mha",
+         image(field(np.uint16, 1.0, 50.0), (0.5, 0.5, 2.0), (0.0, 0.0, 0.0), direction),
+         "keep", compress=True)
+    save("mhd-zlib", "zlib.mhd",
+         image(field(np.float64, 0.125), (1.0, 2.0, 3.0), (4.0, 5.0, 6.0), direction),
+         "keep", compress=True)
+    save("mha-aligned", "aligned.mha",
+         image(field(np.int16), (0.5, 0.25, 2.0), (-8.0, -4.0, 2.0),
+               (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)), "short")
+
+
+nifti_cases()
+metaimage_cases()
+with open(os.path.join(OUT, "manifest.txt"), "w") as f:
+    f.write("\n".join(manifest) + "\n")
+print(f"wrote {len(manifest)} cases to {OUT}")
