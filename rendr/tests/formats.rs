@@ -90,7 +90,7 @@ fn independent_writers_round_trip() {
     let Some((dir, cases)) = write_cases("independent_writers_round_trip") else {
         return;
     };
-    assert!(cases.len() >= 13);
+    assert!(cases.len() >= 18);
     let teem = rnd_tests::teem("independent_writers_round_trip", "teem-unu");
     for c in &cases {
         let v = load_volume(&c.file).unwrap_or_else(|e| panic!("{}: {e}", c.name));
@@ -108,7 +108,9 @@ fn independent_writers_round_trip() {
                 );
             }
         }
-        let (format, frame) = if c.name.starts_with("nii2") {
+        let (format, frame) = if c.name.starts_with("dcm") {
+            (Format::Dicom, "left-posterior-superior")
+        } else if c.name.starts_with("nii2") {
             (Format::Nifti2, "right-anterior-superior")
         } else if c.name.starts_with("nii") {
             (Format::Nifti1, "right-anterior-superior")
@@ -120,7 +122,10 @@ fn independent_writers_round_trip() {
 
         // convert: a NRRD with the same samples (in the type read) and geometry.
         let out = dir.join(format!("{}.nrrd", c.name));
-        ok(&dir, &["convert", c.file.to_str().unwrap(), out.to_str().unwrap()]);
+        ok(
+            &dir,
+            &["convert", c.file.to_str().unwrap(), out.to_str().unwrap()],
+        );
         let read = formats::read(&c.file, 1).unwrap();
         let back = rnd_std::nrrd::read(&out).unwrap();
         assert_eq!(back.data, read.nrrd.data, "{}: converted samples", c.name);
@@ -138,6 +143,33 @@ fn independent_writers_round_trip() {
             assert!(head.contains(&format!("space: {frame}")), "{head}");
         }
     }
+}
+
+#[test]
+fn bad_dicom_series_are_refused_clearly() {
+    let Some((dir, _)) = write_cases("bad_dicom_series_are_refused_clearly") else {
+        return;
+    };
+    for (sub, frag) in [
+        ("two-series", "holds 2 DICOM series"),
+        ("missing-slice", "uneven slice spacing"),
+        ("jpeg2000", "JPEG 2000"),
+    ] {
+        let o = rendr(&dir, &["info", &format!("bad/{sub}")]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{sub}: {err}");
+        assert!(err.contains(frag), "{sub}: {err:?} lacks {frag:?}");
+        assert_eq!(err.trim().lines().count(), 1, "{sub}: {err}");
+    }
+    // One file of a folder with two series picks its own series.
+    let d = dir.join("bad/two-series");
+    let mut names: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    let v = load_volume(&names[0]).unwrap();
+    assert_eq!(v.sizes, [7, 6, 5]);
 }
 
 /// The NRRD rendr writes for a case's array and affine, in the format's frame.
@@ -164,6 +196,7 @@ fn exact_geometry_renders_like_the_nrrd() {
     for (name, frame) in [
         ("nii-aligned", "right-anterior-superior"),
         ("mha-aligned", "left-posterior-superior"),
+        ("dcm-aligned", "left-posterior-superior"),
     ] {
         let c = cases.iter().find(|c| c.name == name).unwrap();
         let nrrd = dir.join(format!("{name}-ref.nrrd"));
@@ -175,18 +208,55 @@ fn exact_geometry_renders_like_the_nrrd() {
                 ok(
                     &dir,
                     &[
-                        "go", "-i", input.to_str().unwrap(), "-fr", "20", "-15", "12", "-at",
-                        "-6.5", "-3.4", "6", "-up", "0", "0", "1", "-nc", "-8", "-fc", "8",
-                        "-fov", "25", "-sz", "40", "32", "-k", "ctmr", "-p", probe, "-b", blend,
-                        "-s", "0.05", "-o", out.to_str().unwrap(),
+                        "go",
+                        "-i",
+                        input.to_str().unwrap(),
+                        "-fr",
+                        "11.5",
+                        "20.6",
+                        "6",
+                        "-at",
+                        "-6.5",
+                        "-3.4",
+                        "6",
+                        "-up",
+                        "0",
+                        "0",
+                        "1",
+                        "-nc",
+                        "-8",
+                        "-fc",
+                        "8",
+                        "-fov",
+                        "22",
+                        "-sz",
+                        "16",
+                        "48",
+                        "-k",
+                        "ctmr",
+                        "-p",
+                        probe,
+                        "-b",
+                        blend,
+                        "-s",
+                        "0.05",
+                        "-o",
+                        out.to_str().unwrap(),
                     ],
                 );
-                outs.push(std::fs::read(&out).unwrap());
+                outs.push(rnd_std::nrrd::read(&out).unwrap().data.to_f64());
             }
-            let data = |b: &[u8]| b[b.windows(2).position(|w| w == b"\n\n").unwrap()..].to_vec();
-            assert_eq!(data(&outs[0]), data(&outs[1]), "{name} -p {probe}: images differ");
-            let zeros = data(&outs[0]).iter().filter(|&&b| b == 0).count();
-            assert!(zeros < outs[0].len() / 2, "{name} -p {probe}: the volume is not in view");
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&outs[0]),
+                bits(&outs[1]),
+                "{name} -p {probe}: images differ"
+            );
+            let hits = outs[0].iter().filter(|&&x| x != 0.0).count();
+            assert!(
+                hits > outs[0].len() / 10,
+                "{name} -p {probe}: {hits} pixels hit the volume"
+            );
         }
     }
 }
@@ -225,20 +295,47 @@ fn hand_made_nifti_reads_and_bad_files_fail_clearly() {
         _ => panic!("short expected"),
     }
     let bad: [(&str, Vec<u8>, &str); 7] = [
-        ("trunc.nii", nifti1([3, 2, 3, 4], 4, 16, 352.0, 47), "truncated"),
-        ("huge.nii", nifti1([3, 32767, 32767, 32767], 16, 32, 352.0, 8), "memory"),
-        ("bitpix.nii", nifti1([3, 2, 3, 4], 4, 8, 352.0, 48), "bitpix"),
-        ("rgb.nii", nifti1([3, 2, 3, 4], 128, 24, 352.0, 72), "colour"),
+        (
+            "trunc.nii",
+            nifti1([3, 2, 3, 4], 4, 16, 352.0, 47),
+            "truncated",
+        ),
+        (
+            "huge.nii",
+            nifti1([3, 32767, 32767, 32767], 16, 32, 352.0, 8),
+            "memory",
+        ),
+        (
+            "bitpix.nii",
+            nifti1([3, 2, 3, 4], 4, 8, 352.0, 48),
+            "bitpix",
+        ),
+        (
+            "rgb.nii",
+            nifti1([3, 2, 3, 4], 128, 24, 352.0, 72),
+            "colour",
+        ),
         ("2d.nii", nifti1([2, 2, 3, 1], 4, 16, 352.0, 12), "axes"),
-        ("negative.nii", nifti1([3, 2, -3, 4], 4, 16, 352.0, 48), "positive"),
-        ("offset.nii", nifti1([3, 2, 3, 4], 4, 16, 100.0, 48), "vox_offset"),
+        (
+            "negative.nii",
+            nifti1([3, 2, -3, 4], 4, 16, 352.0, 48),
+            "positive",
+        ),
+        (
+            "offset.nii",
+            nifti1([3, 2, 3, 4], 4, 16, 100.0, 48),
+            "vox_offset",
+        ),
     ];
     for (name, bytes, frag) in bad {
         std::fs::write(dir.join(name), bytes).unwrap();
         let o = rendr(&dir, &["info", name]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{name}: {err}");
-        assert!(err.contains(name) && err.contains(frag), "{name}: {err:?} lacks {frag:?}");
+        assert!(
+            err.contains(name) && err.contains(frag),
+            "{name}: {err:?} lacks {frag:?}"
+        );
         assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
     }
     // A gzip stream that is not NIfTI, a MetaImage whose data file is missing.

@@ -162,8 +162,181 @@ def metaimage_cases():
                (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)), "short")
 
 
+def ds_str(x):
+    """A number as DICOM writes it: a decimal string of at most 16 characters."""
+    for digits in range(12, 5, -1):
+        t = f"{x:.{digits}g}"
+        if len(t) <= 16:
+            return t
+    raise ValueError(x)
+
+
+def dicom_cases():
+    import random
+    import pydicom
+    from pydicom.dataset import Dataset, FileMetaDataset
+    from pydicom.sequence import Sequence
+    from pydicom.uid import (ExplicitVRLittleEndian, ImplicitVRLittleEndian, RLELossless,
+                             generate_uid, CTImageStorage, EnhancedCTImageStorage)
+
+    rng = random.Random(1234)
+
+    def base(series_uid, ts, sop_class):
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = sop_class
+        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.TransferSyntaxUID = ts
+        ds = Dataset()
+        ds.file_meta = meta
+        ds.SOPClassUID = sop_class
+        ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+        ds.StudyInstanceUID = generate_uid()
+        ds.SeriesInstanceUID = series_uid
+        ds.Modality = "CT"
+        ds.PatientName = "Test^Rendr"
+        ds.SamplesPerPixel = 1
+        ds.PhotometricInterpretation = "MONOCHROME2"
+        return ds
+
+    def pixel_attrs(ds, raw):
+        ds.Rows, ds.Columns = raw.shape
+        bits = raw.dtype.itemsize * 8
+        ds.BitsAllocated = bits
+        ds.BitsStored = bits
+        ds.HighBit = bits - 1
+        ds.PixelRepresentation = 1 if raw.dtype.kind == "i" else 0
+
+    def series(name, raw, spacing, origin, r, c, step, slope, inter, ts, kind,
+               shuffle=True, drop=None, extra=None):
+        """Slices k of raw (fastest axis first: i, j, k) at origin + k * step."""
+        d = os.path.join(OUT, name)
+        os.makedirs(d, exist_ok=True)
+        uid = generate_uid()
+        k_all = list(range(raw.shape[2]))
+        order = k_all[:]
+        if shuffle:
+            rng.shuffle(order)
+        for n_inst, k in enumerate(order):
+            if drop is not None and k == drop:
+                continue
+            ds = base(uid, ts, CTImageStorage)
+            ds.InstanceNumber = len(order) - n_inst
+            pos = [origin[i] + k * step[i] for i in range(3)]
+            ds.ImagePositionPatient = [ds_str(x) for x in pos]
+            ds.ImageOrientationPatient = [ds_str(x) for x in list(r) + list(c)]
+            ds.PixelSpacing = [ds_str(spacing[0]), ds_str(spacing[1])]
+            ds.SliceThickness = ds_str(float(np.linalg.norm(step)))
+            ds.RescaleSlope = ds_str(slope)
+            ds.RescaleIntercept = ds_str(inter)
+            plane = np.ascontiguousarray(raw[:, :, k].T)  # rows = j, columns = i
+            pixel_attrs(ds, plane)
+            if ts == RLELossless:
+                ds.file_meta.TransferSyntaxUID = ExplicitVRLittleEndian
+                ds.PixelData = plane.tobytes()
+                ds.compress(RLELossless, plane)
+            else:
+                ds.PixelData = plane.tobytes()
+            if extra:
+                extra(ds, k)
+            fname = "%08x" % rng.getrandbits(32)  # names say nothing about order
+            ds.save_as(os.path.join(d, fname), enforce_file_format=True,
+                       implicit_vr=(ts == ImplicitVRLittleEndian), little_endian=True)
+        a = np.zeros((3, 4))
+        a[:, 0] = np.asarray(r) * spacing[1]
+        a[:, 1] = np.asarray(c) * spacing[0]
+        a[:, 2] = step
+        a[:, 3] = origin
+        if kind is not None:
+            record(name, name, raw.astype(np.float64) * slope + inter, kind, a)
+        return d
+
+    r0 = rot(0.35, -0.15, 0.6)
+    r, c = r0[:, 0], r0[:, 1]
+    normal = np.cross(r, c)
+    # Oblique, no tilt, short stored values with an intercept; shuffled names.
+    series("dcm-oblique", field(np.int16, 1.0, 100.0), (0.75, 0.625), (-30.5, 12.25, 80.0),
+           r, c, normal * 1.25, 1.0, -1024.0, ExplicitVRLittleEndian, "short")
+    # Unsigned, fractional rescale -> float; implicit VR.
+    series("dcm-frac", field(np.uint16, 1.0, 60.0), (0.5, 0.5), (1.0, 2.0, 3.0),
+           r, c, normal * 2.0, 0.5, -7.25, ImplicitVRLittleEndian, "float")
+    # RLE Lossless (decoded by dicom-pixeldata).
+    series("dcm-rle", field(np.int16, 1.0, 0.0), (1.0, 1.0), (0.0, 0.0, 0.0),
+           r, c, normal * 1.5, 1.0, 0.0, RLELossless, "short")
+    # Axis-aligned, binary fractions: renders like the NRRD (LPS).
+    series("dcm-aligned", field(np.int16), (0.25, 0.5), (-8.0, -4.0, 2.0),
+           (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), np.array([0.0, 0.0, 2.0]), 1.0, 0.0,
+           ExplicitVRLittleEndian, "short")
+
+    # Enhanced multi-frame: per-frame positions, shared orientation and spacing.
+    raw = field(np.int16, 1.0, 5.0)
+    step = normal * 1.75
+    origin = (4.0, -5.0, 6.0)
+    uid = generate_uid()
+    ds = base(uid, ExplicitVRLittleEndian, EnhancedCTImageStorage)
+    ds.NumberOfFrames = raw.shape[2]
+    shared = Dataset()
+    po = Dataset()
+    po.ImageOrientationPatient = [ds_str(x) for x in list(r) + list(c)]
+    pm = Dataset()
+    pm.PixelSpacing = [ds_str(0.8), ds_str(0.9)]
+    pm.SliceThickness = ds_str(1.75)
+    pv = Dataset()
+    pv.RescaleSlope = "1"
+    pv.RescaleIntercept = "-100"
+    pv.RescaleType = "HU"
+    shared.PlaneOrientationSequence = Sequence([po])
+    shared.PixelMeasuresSequence = Sequence([pm])
+    shared.PixelValueTransformationSequence = Sequence([pv])
+    ds.SharedFunctionalGroupsSequence = Sequence([shared])
+    frames = []
+    order = list(range(raw.shape[2]))
+    rng.shuffle(order)  # frames stored out of spatial order
+    for k in order:
+        f = Dataset()
+        pp = Dataset()
+        pp.ImagePositionPatient = [ds_str(origin[i] + k * step[i]) for i in range(3)]
+        f.PlanePositionSequence = Sequence([pp])
+        frames.append(f)
+    ds.PerFrameFunctionalGroupsSequence = Sequence(frames)
+    planes = [np.ascontiguousarray(raw[:, :, k].T) for k in order]
+    pixel_attrs(ds, planes[0])
+    ds.PixelData = b"".join(p.tobytes() for p in planes)
+    os.makedirs(os.path.join(OUT, "dcm-multiframe"), exist_ok=True)
+    ds.save_as(os.path.join(OUT, "dcm-multiframe", "enhanced.dcm"), enforce_file_format=True)
+    a = np.zeros((3, 4))
+    a[:, 0] = r * 0.9
+    a[:, 1] = c * 0.8
+    a[:, 2] = step
+    a[:, 3] = origin
+    record("dcm-multiframe", "dcm-multiframe/enhanced.dcm", raw.astype(np.float64) - 100.0,
+           "short", a)
+
+    # Bad series (not in the manifest): two series in one folder, a missing slice, an
+    # unsupported transfer syntax.
+    bad = os.path.join(OUT, "bad")
+    os.makedirs(bad, exist_ok=True)
+    for sub in ("two-series",):
+        d = series(os.path.join("bad", sub), field(np.int16), (1.0, 1.0), (0, 0, 0), r, c,
+                   normal, 1.0, 0.0, ExplicitVRLittleEndian, None)
+        d2 = series(os.path.join("bad", sub + "-b"), field(np.int16), (1.0, 1.0), (0, 0, 0),
+                    r, c, normal, 1.0, 0.0, ExplicitVRLittleEndian, None)
+        for f in os.listdir(d2):
+            os.replace(os.path.join(d2, f), os.path.join(d, "b" + f))
+        os.rmdir(d2)
+    series(os.path.join("bad", "missing-slice"), field(np.int16), (1.0, 1.0), (0, 0, 0), r, c,
+           normal, 1.0, 0.0, ExplicitVRLittleEndian, None, drop=2)
+
+    def j2k(ds, k):
+        ds.file_meta.TransferSyntaxUID = "1.2.840.10008.1.2.4.90"  # JPEG 2000 lossless
+        from pydicom.encaps import encapsulate
+        ds.PixelData = encapsulate([b"\xff\x4f\xff\x51" + bytes(64)])
+    series(os.path.join("bad", "jpeg2000"), field(np.int16), (1.0, 1.0), (0, 0, 0), r, c,
+           normal, 1.0, 0.0, ExplicitVRLittleEndian, None, extra=j2k)
+
+
 nifti_cases()
 metaimage_cases()
+dicom_cases()
 with open(os.path.join(OUT, "manifest.txt"), "w") as f:
     f.write("\n".join(manifest) + "\n")
 print(f"wrote {len(manifest)} cases to {OUT}")

@@ -52,7 +52,10 @@ impl Header {
             None => Ok(false),
             Some(v) if v.eq_ignore_ascii_case("true") || v == "1" => Ok(true),
             Some(v) if v.eq_ignore_ascii_case("false") || v == "0" => Ok(false),
-            Some(v) => Err(Error::msg(format!("{}: \"{v}\" is not True or False", keys[0]))),
+            Some(v) => Err(Error::msg(format!(
+                "{}: \"{v}\" is not True or False",
+                keys[0]
+            ))),
         }
     }
 }
@@ -135,17 +138,19 @@ pub(super) fn read(r: &mut dyn BufRead, path: &Path) -> Result<Loaded> {
     let file = h.get(&["ElementDataFile"]).unwrap_or_default();
     let header_size = match h.get(&["HeaderSize"]) {
         None => 0i64,
-        Some(v) => v
-            .parse::<i64>()
-            .ok()
-            .filter(|&x| x >= -1)
-            .ok_or_else(|| Error::msg(format!("MetaImage: HeaderSize \"{v}\" is not a byte count or -1")))?,
+        Some(v) => v.parse::<i64>().ok().filter(|&x| x >= -1).ok_or_else(|| {
+            Error::msg(format!(
+                "MetaImage: HeaderSize \"{v}\" is not a byte count or -1"
+            ))
+        })?,
     };
     let mut local;
     let mut opened;
     let src: &mut dyn Read = if file.eq_ignore_ascii_case("LOCAL") {
         if header_size != 0 {
-            return Err(Error::msg("MetaImage: HeaderSize with LOCAL data is not supported"));
+            return Err(Error::msg(
+                "MetaImage: HeaderSize with LOCAL data is not supported",
+            ));
         }
         local = r;
         &mut local
@@ -159,14 +164,18 @@ pub(super) fn read(r: &mut dyn BufRead, path: &Path) -> Result<Loaded> {
             use std::io::Seek;
             let len = f.metadata().map(|m| m.len()).unwrap_or(0);
             let start = len.checked_sub(nbytes as u64).ok_or_else(|| {
-                Error::at(&data, format!("holds {len} bytes, fewer than the {nbytes} of the data"))
+                Error::at(
+                    &data,
+                    format!("holds {len} bytes, fewer than the {nbytes} of the data"),
+                )
             })?;
             f.seek(std::io::SeekFrom::Start(start))
                 .map_err(|e| Error::io(&data, "can't seek", e))?;
         }
         opened = std::io::BufReader::new(f);
         if header_size > 0 {
-            super::skip(&mut opened, header_size as u64, "HeaderSize").map_err(|e| e.with_path(&data))?;
+            super::skip(&mut opened, header_size as u64, "HeaderSize")
+                .map_err(|e| e.with_path(&data))?;
         }
         notes.push(format!("data read from {}", data.display()));
         &mut opened
@@ -186,7 +195,9 @@ pub(super) fn read(r: &mut dyn BufRead, path: &Path) -> Result<Loaded> {
         // zlib; CompressedDataSize, when given, bounds what is read.
         let csize = match h.get(&["CompressedDataSize"]) {
             Some(v) => Some(v.parse::<u64>().map_err(|_| {
-                Error::msg(format!("MetaImage: CompressedDataSize \"{v}\" is not a byte count"))
+                Error::msg(format!(
+                    "MetaImage: CompressedDataSize \"{v}\" is not a byte count"
+                ))
             })?),
             None => None,
         };
@@ -204,7 +215,14 @@ pub(super) fn read(r: &mut dyn BufRead, path: &Path) -> Result<Loaded> {
     })
 }
 
-type Described = ([usize; 3], ScalarType, Endian, [[f64; 3]; 3], [f64; 3], Vec<String>);
+type Described = (
+    [usize; 3],
+    ScalarType,
+    Endian,
+    [[f64; 3]; 3],
+    [f64; 3],
+    Vec<String>,
+);
 
 /// Sizes, sample type, byte order and geometry from a header.
 fn describe(h: &Header) -> Result<Described> {
@@ -224,7 +242,9 @@ fn describe(h: &Header) -> Result<Described> {
         .nums(&["DimSize"], nd)?
         .ok_or_else(|| Error::msg("no DimSize"))?;
     if dims.iter().any(|d| d.fract() != 0.0) {
-        return Err(Error::msg(format!("DimSize {dims:?} are not whole numbers")));
+        return Err(Error::msg(format!(
+            "DimSize {dims:?} are not whole numbers"
+        )));
     }
     let di: Vec<i64> = dims.iter().map(|&d| d as i64).collect();
     let sizes = super::sizes3(&di, "DimSize")?;
@@ -235,7 +255,10 @@ fn describe(h: &Header) -> Result<Described> {
             )));
         }
     }
-    let t = scalar(h.get(&["ElementType"]).ok_or_else(|| Error::msg("no ElementType"))?)?;
+    let t = scalar(
+        h.get(&["ElementType"])
+            .ok_or_else(|| Error::msg("no ElementType"))?,
+    )?;
     let msb = h.flag(&["BinaryDataByteOrderMSB"])? || h.flag(&["ElementByteOrderMSB"])?;
     let endian = if msb { Endian::Big } else { Endian::Little };
     // Only the first three axes carry geometry; later ones (of size 1) are dropped.
@@ -258,12 +281,15 @@ fn describe(h: &Header) -> Result<Described> {
     if sp[..3].contains(&0.0) {
         return Err(Error::msg(format!("ElementSpacing {sp:?} has a zero")));
     }
-    let dirs: [[f64; 3]; 3] = core::array::from_fn(|i| core::array::from_fn(|j| m[3 * i + j] * sp[i]));
+    let dirs: [[f64; 3]; 3] =
+        core::array::from_fn(|i| core::array::from_fn(|j| m[3 * i + j] * sp[i]));
     Ok((sizes, t, endian, dirs, [o[0], o[1], o[2]], Vec::new()))
 }
 
 fn identity(n: usize) -> Vec<f64> {
-    (0..n * n).map(|i| if i % (n + 1) == 0 { 1.0 } else { 0.0 }).collect()
+    (0..n * n)
+        .map(|i| if i % (n + 1) == 0 { 1.0 } else { 0.0 })
+        .collect()
 }
 
 /// The data file a header names, resolved beside the header. Lists and file-name
@@ -313,9 +339,11 @@ mod tests {
 
     #[test]
     fn transform_triples_are_axis_directions() {
-        let h = hdr("ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\nElementType = MET_SHORT\n\
+        let h = hdr(
+            "ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\nElementType = MET_SHORT\n\
                      ElementSpacing = 1 2 3\nOffset = 5 6 7\n\
-                     TransformMatrix = 0 1 0 -1 0 0 0 0 1\nElementDataFile = LOCAL\n");
+                     TransformMatrix = 0 1 0 -1 0 0 0 0 1\nElementDataFile = LOCAL\n",
+        );
         let (sizes, t, e, dirs, o, _) = describe(&h).unwrap();
         assert_eq!((sizes, t, e), ([2, 3, 4], ScalarType::I16, Endian::Little));
         assert_eq!(dirs, [[0.0, 1.0, 0.0], [-2.0, 0.0, 0.0], [0.0, 0.0, 3.0]]);

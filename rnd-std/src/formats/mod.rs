@@ -13,6 +13,11 @@
 //! Each non-NRRD format sits behind a cargo feature of `rnd-std` (`nifti`, `metaimage`,
 //! `dicom`; all on by default); a file of a format left out is refused with a message
 //! naming the feature.
+// Builds without some formats leave their helpers unused.
+#![cfg_attr(
+    not(all(feature = "nifti", feature = "metaimage", feature = "dicom")),
+    allow(dead_code, unused_mut, unused_imports, unused_variables)
+)]
 
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
@@ -20,6 +25,8 @@ use std::path::{Path, PathBuf};
 use crate::nrrd::{self, Data, Nrrd};
 use crate::{Error, Result};
 
+#[cfg(feature = "dicom")]
+mod dicom;
 #[cfg(feature = "metaimage")]
 mod metaimage;
 #[cfg(feature = "nifti")]
@@ -130,7 +137,9 @@ fn is_metaimage(head: &[u8]) -> bool {
 
 /// Reads up to [`PEEK`] bytes of `src` (fewer only at its end) and returns them with a
 /// reader that yields them again, followed by the rest of `src`.
-fn peek<'a>(mut src: Box<dyn Read + 'a>) -> Result<(Vec<u8>, std::io::BufReader<Box<dyn Read + 'a>>)> {
+fn peek<'a>(
+    mut src: Box<dyn Read + 'a>,
+) -> Result<(Vec<u8>, std::io::BufReader<Box<dyn Read + 'a>>)> {
     let mut head = Vec::new();
     (&mut src)
         .take(PEEK as u64)
@@ -200,6 +209,10 @@ fn read_inner(path: &Path, threads: usize) -> Result<Loaded> {
     }
 }
 
+#[cfg_attr(
+    all(feature = "nifti", feature = "metaimage", feature = "dicom"),
+    allow(dead_code)
+)]
 fn missing(feature: &str, what: &str) -> Error {
     Error::msg(format!(
         "this is a {what} file, and this build of rnd-std was made without its feature \
@@ -225,7 +238,12 @@ fn read_metaimage(_: &mut dyn BufRead, _: &Path) -> Result<Loaded> {
     Err(missing("metaimage", "MetaImage"))
 }
 
-fn read_dicom(_path: &Path) -> Result<Loaded> {
+#[cfg(feature = "dicom")]
+fn read_dicom(path: &Path) -> Result<Loaded> {
+    dicom::read(path)
+}
+#[cfg(not(feature = "dicom"))]
+fn read_dicom(_: &Path) -> Result<Loaded> {
     Err(missing("dicom", "DICOM"))
 }
 
@@ -238,12 +256,8 @@ pub fn input_files(path: &Path) -> Vec<PathBuf> {
     if path.as_os_str() == "-" {
         return out;
     }
-    if path.is_dir() {
-        if let Ok(rd) = std::fs::read_dir(path) {
-            out.extend(rd.flatten().map(|e| e.path()).filter(|p| p.is_file()));
-        }
-        return out;
-    }
+    #[cfg(feature = "dicom")]
+    out.extend(dicom::input_files(path));
     #[cfg(feature = "nifti")]
     out.extend(nifti::pair_data_file(path));
     #[cfg(feature = "metaimage")]
@@ -284,7 +298,9 @@ pub(crate) fn sizes3(dims: &[i64], what: &str) -> Result<[usize; 3]> {
         )));
     }
     if d.iter().any(|&s| s < 1) {
-        return Err(Error::msg(format!("{what}: sizes {dims:?} must be positive")));
+        return Err(Error::msg(format!(
+            "{what}: sizes {dims:?} must be positive"
+        )));
     }
     let s: [usize; 3] = core::array::from_fn(|i| usize::try_from(d[i]).unwrap_or(usize::MAX));
     s.iter()
@@ -399,7 +415,10 @@ mod tests {
         n2[..4].copy_from_slice(&540i32.to_le_bytes());
         n2[4..8].copy_from_slice(b"ni2\0");
         assert_eq!(detect(&n2), Some(Format::Nifti2));
-        assert_eq!(detect(b"ObjectType = Image\nNDims = 3\n"), Some(Format::MetaImage));
+        assert_eq!(
+            detect(b"ObjectType = Image\nNDims = 3\n"),
+            Some(Format::MetaImage)
+        );
         assert_eq!(detect(b"NRRD0004\n"), Some(Format::Nrrd));
         assert_eq!(detect(b"1 2 3\n4 5 6\n"), None);
         let mut dcm = vec![0u8; 132];

@@ -141,7 +141,11 @@ fn scalar(code: i16) -> Result<ScalarType> {
                 "datatype {code} is RGB(A) colour; rendr renders scalar volumes"
             )))
         }
-        _ => return Err(Error::msg(format!("datatype {code} is not a NIfTI sample type"))),
+        _ => {
+            return Err(Error::msg(format!(
+                "datatype {code} is not a NIfTI sample type"
+            )))
+        }
     })
 }
 
@@ -150,8 +154,12 @@ fn unit_note(units: i32) -> Option<String> {
     match units & 7 {
         0 | 2 => None,
         1 => Some("spatial unit is metres; coordinates are used as the file gives them".into()),
-        3 => Some("spatial unit is micrometres; coordinates are used as the file gives them".into()),
-        u => Some(format!("unknown spatial unit code {u}; coordinates used as given")),
+        3 => {
+            Some("spatial unit is micrometres; coordinates are used as the file gives them".into())
+        }
+        u => Some(format!(
+            "unknown spatial unit code {u}; coordinates used as given"
+        )),
     }
 }
 
@@ -199,9 +207,21 @@ fn geometry(h: &Hdr) -> Result<([[f64; 3]; 3], [f64; 3], String)> {
         let [b, c, d] = h.quatern;
         let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
         let r = [
-            [a * a + b * b - c * c - d * d, 2.0 * (b * c - a * d), 2.0 * (b * d + a * c)],
-            [2.0 * (b * c + a * d), a * a + c * c - b * b - d * d, 2.0 * (c * d - a * b)],
-            [2.0 * (b * d - a * c), 2.0 * (c * d + a * b), a * a + d * d - c * c - b * b],
+            [
+                a * a + b * b - c * c - d * d,
+                2.0 * (b * c - a * d),
+                2.0 * (b * d + a * c),
+            ],
+            [
+                2.0 * (b * c + a * d),
+                a * a + c * c - b * b - d * d,
+                2.0 * (c * d - a * b),
+            ],
+            [
+                2.0 * (b * d - a * c),
+                2.0 * (c * d + a * b),
+                a * a + d * d - c * c - b * b,
+            ],
         ];
         let qfac = if h.pixdim[0] == -1.0 { -1.0 } else { 1.0 };
         let scale = [sp[0].abs(), sp[1].abs(), sp[2].abs() * qfac];
@@ -288,7 +308,14 @@ pub(super) fn read(f: Format, r: &mut dyn BufRead, path: &Path, gz: bool) -> Res
         super::skip(r, h.vox_offset as u64 - len as u64, "vox_offset")?;
         crate::nrrd::read::read_samples(r, t, h.endian, n)?
     };
-    let (slope, inter) = (h.scl_slope, if h.scl_inter.is_finite() { h.scl_inter } else { 0.0 });
+    let (slope, inter) = (
+        h.scl_slope,
+        if h.scl_inter.is_finite() {
+            h.scl_inter
+        } else {
+            0.0
+        },
+    );
     let data = if slope.is_finite() && slope != 0.0 {
         let (d, note) = super::rescale(data, slope, inter)?;
         notes.extend(note.map(|s| format!("scl_slope/scl_inter: {s}")));
@@ -314,8 +341,16 @@ pub(super) fn pair_data_file(path: &Path) -> Option<PathBuf> {
         .or_else(|| name.strip_suffix(".hdr"))
         .or_else(|| name.strip_suffix(".HDR"))?;
     let upper = name.ends_with(".HDR");
-    let ext = if upper { ["IMG", "IMG.gz"] } else { ["img", "img.gz"] };
-    let first = if name.ends_with(".gz") { [ext[1], ext[0]] } else { ext };
+    let ext = if upper {
+        ["IMG", "IMG.gz"]
+    } else {
+        ["img", "img.gz"]
+    };
+    let first = if name.ends_with(".gz") {
+        [ext[1], ext[0]]
+    } else {
+        ext
+    };
     first
         .iter()
         .map(|e| path.with_file_name(format!("{stem}.{e}")))
@@ -371,7 +406,11 @@ mod tests {
         let mut h = hdr();
         h.qform_code = 1;
         h.sform_code = 2;
-        h.srow = [[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0], [9.0, 10.0, 11.0, 12.0]];
+        h.srow = [
+            [1.0, 2.0, 3.0, 4.0],
+            [5.0, 6.0, 7.0, 8.0],
+            [9.0, 10.0, 11.0, 12.0],
+        ];
         let (d, o, how) = geometry(&h).unwrap();
         assert_eq!(d, [[1.0, 5.0, 9.0], [2.0, 6.0, 10.0], [3.0, 7.0, 11.0]]);
         assert_eq!(o, [4.0, 8.0, 12.0]);

@@ -1351,6 +1351,7 @@ fn from_bytes(t: ScalarType, b: &[u8], e: Endian, n: usize) -> Result<Data> {
 /// MetaImage and DICOM store them), in pieces of at most 1 MiB so no second copy of the
 /// data is held. The memory is checked and reserved first; fewer bytes than needed is an
 /// error saying how many there were.
+#[cfg_attr(not(any(feature = "nifti", feature = "metaimage")), allow(dead_code))]
 pub(crate) fn read_samples(r: &mut dyn Read, t: ScalarType, e: Endian, n: usize) -> Result<Data> {
     let total = n
         .checked_mul(t.size())
@@ -1383,6 +1384,7 @@ pub(crate) fn read_samples(r: &mut dyn Read, t: ScalarType, e: Endian, n: usize)
 }
 
 /// Parses `n` whitespace-separated numbers as samples of type `t` (ASCII data).
+#[cfg_attr(not(feature = "metaimage"), allow(dead_code))]
 pub(crate) fn text_samples(t: ScalarType, text: &str, n: usize) -> Result<Data> {
     ascii_data(t, text, n)
 }

@@ -1,0 +1,581 @@
+//! DICOM series: a directory of single-frame slices, one file of such a series (its
+//! siblings of the same SeriesInstanceUID are read with it), or an enhanced multi-frame
+//! file whose frames carry their own plane positions.
+//!
+//! Files are parsed by `dicom-object`; pixel data of every transfer syntax that
+//! `dicom-pixeldata` decodes (native, deflated, RLE, JPEG baseline/extended/lossless) is
+//! read, others are refused naming the transfer syntax.
+//!
+//! Geometry, in DICOM's LPS patient frame (`left-posterior-superior`):
+//! - `ImageOrientationPatient` gives the row direction `r` (the world direction of
+//!   increasing column index, rendr's fast axis) and the column direction `c`;
+//!   `PixelSpacing` is (row spacing, column spacing), so the index-to-world columns are
+//!   `r · PixelSpacing[1]` and `c · PixelSpacing[0]`;
+//! - slices are sorted by the position of `ImagePositionPatient` along the normal
+//!   `r × c` (never by file name or instance number); the spacings between consecutive
+//!   positions must agree (to 1/1000 of the slice step) or the series is refused
+//!   (uneven spacing, a missing slice, two slices at one position);
+//! - the third column is the mean step between consecutive `ImagePositionPatient`s
+//!   (parallel to the normal, or sheared for a gantry tilt), the origin the first
+//!   slice's position.
+//!
+//! Values: stored values are kept in their type (8/16/32 bits, signed or not) and
+//! `RescaleSlope`/`RescaleIntercept` applied as [`super::rescale`] says; slices with
+//! different rescales become float.
+
+use std::path::{Path, PathBuf};
+
+use dicom_dictionary_std::tags;
+use dicom_object::mem::InMemElement;
+use dicom_object::{InMemDicomObject, OpenFileOptions};
+use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder};
+
+use super::{Format, Loaded};
+use crate::nrrd::Data;
+use crate::{Error, Result};
+
+/// Most files a series directory may hold.
+const FILES_MAX: usize = 100_000;
+
+/// One frame (plane) of the volume and where its pixels are.
+#[derive(Debug, Clone)]
+struct Frame {
+    file: PathBuf,
+    /// Frame index in its file.
+    index: u32,
+    pos: [f64; 3],
+    orient: [f64; 6],
+    spacing: [f64; 2],
+    rescale: (f64, f64),
+}
+
+/// What every frame of a series must share.
+#[derive(Debug, Clone, PartialEq)]
+struct Layout {
+    rows: u32,
+    cols: u32,
+    bits: u16,
+    signed: bool,
+}
+
+fn elem<'a>(o: &'a InMemDicomObject, tag: dicom_object::Tag) -> Option<&'a InMemElement> {
+    o.element_opt(tag).ok().flatten()
+}
+
+fn floats(
+    o: &InMemDicomObject,
+    tag: dicom_object::Tag,
+    name: &str,
+    n: usize,
+) -> Result<Option<Vec<f64>>> {
+    let Some(e) = elem(o, tag) else {
+        return Ok(None);
+    };
+    let v = e
+        .to_multi_float64()
+        .map_err(|err| Error::msg(format!("{name}: {err}")))?;
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        return Err(Error::msg(format!("{name}: {v:?} is not {n} numbers")));
+    }
+    Ok(Some(v))
+}
+
+fn int(o: &InMemDicomObject, tag: dicom_object::Tag, name: &str) -> Result<Option<i64>> {
+    elem(o, tag)
+        .map(|e| {
+            e.to_int::<i64>()
+                .map_err(|err| Error::msg(format!("{name}: {err}")))
+        })
+        .transpose()
+}
+
+/// The first item of sequence `seq` in `o`.
+fn item(o: &InMemDicomObject, seq: dicom_object::Tag) -> Option<&InMemDicomObject> {
+    elem(o, seq)?.items()?.first()
+}
+
+/// A value from the functional groups: the frame's own item first, then the shared one,
+/// then the top level.
+fn grouped(
+    top: &InMemDicomObject,
+    per_frame: Option<&InMemDicomObject>,
+    seq: dicom_object::Tag,
+    tag: dicom_object::Tag,
+    name: &str,
+    n: usize,
+) -> Result<Option<Vec<f64>>> {
+    let shared = item(top, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE);
+    for g in [per_frame, shared].into_iter().flatten() {
+        if let Some(s) = item(g, seq) {
+            if let Some(v) = floats(s, tag, name, n)? {
+                return Ok(Some(v));
+            }
+        }
+    }
+    floats(top, tag, name, n)
+}
+
+/// The series UID, layout and frames of one file (header only, pixel data not read).
+fn frames_of(path: &Path) -> Result<(String, Layout, Vec<Frame>, String)> {
+    let obj = OpenFileOptions::new()
+        .read_until(tags::PIXEL_DATA)
+        .open_file(path)
+        .map_err(|e| Error::at(path, format!("not a readable DICOM file: {e}")))?;
+    let ts = obj
+        .meta()
+        .transfer_syntax()
+        .trim_end_matches('\0')
+        .to_string();
+    let o: &InMemDicomObject = &obj;
+    let at = |e: Error| e.with_path(path);
+    let uid = elem(o, tags::SERIES_INSTANCE_UID)
+        .and_then(|e| e.to_str().ok())
+        .map(|s| s.trim_end_matches('\0').trim().to_string())
+        .unwrap_or_default();
+    let get = |tag, name: &str| -> Result<i64> {
+        int(o, tag, name)?.ok_or_else(|| Error::msg(format!("no {name}: not an image")))
+    };
+    let spp = int(o, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel")
+        .map_err(at)?
+        .unwrap_or(1);
+    if spp != 1 {
+        return Err(Error::at(
+            path,
+            format!("SamplesPerPixel {spp}: colour images can't be rendered as a scalar volume"),
+        ));
+    }
+    let rows = get(tags::ROWS, "Rows").map_err(at)?;
+    let cols = get(tags::COLUMNS, "Columns").map_err(at)?;
+    let bits = get(tags::BITS_ALLOCATED, "BitsAllocated").map_err(at)?;
+    let signed = int(o, tags::PIXEL_REPRESENTATION, "PixelRepresentation").map_err(at)? == Some(1);
+    if !(1..=65535).contains(&rows) || !(1..=65535).contains(&cols) {
+        return Err(Error::at(
+            path,
+            format!("Rows {rows} x Columns {cols} is not an image size"),
+        ));
+    }
+    if ![8, 16, 32].contains(&bits) {
+        return Err(Error::at(
+            path,
+            format!("BitsAllocated {bits}: only 8, 16 or 32 are read"),
+        ));
+    }
+    let layout = Layout {
+        rows: rows as u32,
+        cols: cols as u32,
+        bits: bits as u16,
+        signed,
+    };
+    let nframes = int(o, tags::NUMBER_OF_FRAMES, "NumberOfFrames")
+        .map_err(at)?
+        .unwrap_or(1);
+    if !(1..=1_000_000).contains(&nframes) {
+        return Err(Error::at(
+            path,
+            format!("NumberOfFrames {nframes} is not a frame count"),
+        ));
+    }
+    let per_frame: Vec<&InMemDicomObject> = elem(o, tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
+        .and_then(|e| e.items())
+        .map(|items| items.iter().collect())
+        .unwrap_or_default();
+    if nframes > 1 && per_frame.len() != nframes as usize {
+        return Err(Error::at(
+            path,
+            format!(
+                "{nframes} frames without a plane position for each (PerFrameFunctionalGroups \
+                 has {} items); rendr reads multi-frame files of the enhanced kind",
+                per_frame.len()
+            ),
+        ));
+    }
+    let mut frames = Vec::new();
+    for f in 0..nframes as usize {
+        let pf = per_frame.get(f).copied();
+        let need = |v: Option<Vec<f64>>, name: &str| {
+            v.ok_or_else(|| Error::at(path, format!("no {name}: the slice has no place in space")))
+        };
+        let pos = need(
+            grouped(
+                o,
+                pf,
+                tags::PLANE_POSITION_SEQUENCE,
+                tags::IMAGE_POSITION_PATIENT,
+                "ImagePositionPatient",
+                3,
+            )
+            .map_err(at)?,
+            "ImagePositionPatient",
+        )?;
+        let orient = need(
+            grouped(
+                o,
+                pf,
+                tags::PLANE_ORIENTATION_SEQUENCE,
+                tags::IMAGE_ORIENTATION_PATIENT,
+                "ImageOrientationPatient",
+                6,
+            )
+            .map_err(at)?,
+            "ImageOrientationPatient",
+        )?;
+        let spacing = need(
+            grouped(
+                o,
+                pf,
+                tags::PIXEL_MEASURES_SEQUENCE,
+                tags::PIXEL_SPACING,
+                "PixelSpacing",
+                2,
+            )
+            .map_err(at)?,
+            "PixelSpacing",
+        )?;
+        let one = |tag, name| -> Result<Option<f64>> {
+            Ok(grouped(
+                o,
+                pf,
+                tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
+                tag,
+                name,
+                1,
+            )?
+            .map(|v| v[0]))
+        };
+        let slope = one(tags::RESCALE_SLOPE, "RescaleSlope")
+            .map_err(at)?
+            .unwrap_or(1.0);
+        let inter = one(tags::RESCALE_INTERCEPT, "RescaleIntercept")
+            .map_err(at)?
+            .unwrap_or(0.0);
+        frames.push(Frame {
+            file: path.to_path_buf(),
+            index: f as u32,
+            pos: [pos[0], pos[1], pos[2]],
+            orient: core::array::from_fn(|i| orient[i]),
+            spacing: [spacing[0], spacing[1]],
+            rescale: (slope, inter),
+        });
+    }
+    Ok((uid, layout, frames, ts))
+}
+
+/// True when `path` starts like a DICOM Part 10 file (preamble + `DICM`).
+fn is_dicom(path: &Path) -> bool {
+    use std::io::Read;
+    let mut b = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut b))
+        .is_ok()
+        && &b[128..] == b"DICM"
+}
+
+/// Reads the series `path` names (a directory, or one file of the series).
+pub(super) fn read(path: &Path) -> Result<Loaded> {
+    let (dir, only) = if path.is_dir() {
+        (path.to_path_buf(), None)
+    } else {
+        let (uid, ..) = frames_of(path)?;
+        (
+            path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+            Some(uid),
+        )
+    };
+    let files = series_files(&dir)?;
+    if files.is_empty() {
+        return Err(Error::at(&dir, "holds no DICOM files"));
+    }
+    // Group by series; a directory must hold one (or the file given picks it).
+    let mut series: Vec<(String, Vec<(Layout, Vec<Frame>, String)>)> = Vec::new();
+    for f in &files {
+        let (uid, layout, frames, ts) = frames_of(f)?;
+        match series.iter_mut().find(|(u, _)| *u == uid) {
+            Some((_, v)) => v.push((layout, frames, ts)),
+            None => series.push((uid, vec![(layout, frames, ts)])),
+        }
+    }
+    let parts = match only {
+        Some(uid) => series
+            .into_iter()
+            .find(|(u, _)| *u == uid)
+            .map(|(_, v)| v)
+            .unwrap_or_default(),
+        None if series.len() == 1 => series.pop().map(|(_, v)| v).unwrap_or_default(),
+        None => {
+            let uids: Vec<&str> = series.iter().map(|(u, _)| u.as_str()).collect();
+            return Err(Error::at(
+                &dir,
+                format!(
+                    "holds {} DICOM series ({}); name one file of the series to read",
+                    uids.len(),
+                    uids.join(", ")
+                ),
+            ));
+        }
+    };
+    let layout = parts[0].0.clone();
+    let mut frames: Vec<Frame> = Vec::new();
+    let mut syntaxes: Vec<String> = Vec::new();
+    for (l, fr, ts) in parts {
+        if l != layout {
+            return Err(Error::at(
+                &fr[0].file,
+                format!("its slices are {l:?}, the series' first are {layout:?}"),
+            ));
+        }
+        if !syntaxes.contains(&ts) {
+            syntaxes.push(ts);
+        }
+        frames.extend(fr);
+    }
+    let (dirs, origin, notes) = geometry(&mut frames)?;
+    let data = pixels(&frames, &layout)?;
+    let mut notes = notes;
+    notes.insert(
+        0,
+        format!(
+            "DICOM series of {} slices ({} file{}; transfer syntax {})",
+            frames.len(),
+            files.len(),
+            if files.len() == 1 { "" } else { "s" },
+            syntaxes
+                .iter()
+                .map(|u| syntax_name(u))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    );
+    let rescales: Vec<(f64, f64)> = frames.iter().map(|f| f.rescale).collect();
+    let data = if rescales.iter().all(|r| *r == rescales[0]) {
+        let (d, note) = super::rescale(data, rescales[0].0, rescales[0].1)?;
+        notes.extend(note.map(|s| format!("RescaleSlope/Intercept: {s}")));
+        d
+    } else {
+        notes.push("slices have different RescaleSlope/Intercept: each applied, into float".into());
+        let per = (layout.rows * layout.cols) as usize;
+        let v = data.to_f64();
+        Data::F32(
+            v.iter()
+                .enumerate()
+                .map(|(i, &x)| {
+                    let (s, b) = rescales[i / per];
+                    (x * s + b) as f32
+                })
+                .collect(),
+        )
+    };
+    let sizes = [layout.cols as usize, layout.rows as usize, frames.len()];
+    let nrrd = super::volume_nrrd(sizes, data, "left-posterior-superior", dirs, origin)?;
+    Ok(Loaded {
+        nrrd,
+        format: Format::Dicom,
+        notes,
+    })
+}
+
+/// The DICOM files directly in `dir` (DICOMDIR and other files skipped), sorted by name
+/// only so errors are reproducible.
+fn series_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let rd = std::fs::read_dir(dir).map_err(|e| Error::io(dir, "can't list", e))?;
+    let mut out = Vec::new();
+    for e in rd {
+        let p = e.map_err(|e| Error::io(dir, "can't list", e))?.path();
+        let dicomdir = p
+            .file_name()
+            .is_some_and(|n| n.eq_ignore_ascii_case("DICOMDIR"));
+        if p.is_file() && !dicomdir && is_dicom(&p) {
+            out.push(p);
+            if out.len() > FILES_MAX {
+                return Err(Error::at(
+                    dir,
+                    format!("holds more than {FILES_MAX} DICOM files"),
+                ));
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+fn syntax_name(uid: &str) -> String {
+    use dicom_transfer_syntax_registry::TransferSyntaxIndex;
+    match dicom_transfer_syntax_registry::TransferSyntaxRegistry.get(uid) {
+        Some(ts) => format!("{} ({uid})", ts.name()),
+        None => uid.to_string(),
+    }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Sorts the frames along the normal and checks their spacing; the index-to-world
+/// columns, origin and notes.
+fn geometry(frames: &mut [Frame]) -> Result<([[f64; 3]; 3], [f64; 3], Vec<String>)> {
+    let f0 = frames[0].clone();
+    let close = |a: &[f64], b: &[f64], tol: f64| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol);
+    for f in frames.iter() {
+        if !close(&f.orient, &f0.orient, 1e-4)
+            || !close(&f.spacing, &f0.spacing, 1e-6 * f0.spacing[0].abs().max(1.0))
+        {
+            return Err(Error::at(
+                &f.file,
+                "its ImageOrientationPatient or PixelSpacing differs from the series' other slices",
+            ));
+        }
+    }
+    let r = [f0.orient[0], f0.orient[1], f0.orient[2]];
+    let c = [f0.orient[3], f0.orient[4], f0.orient[5]];
+    let n = cross(r, c);
+    let nl = dot(n, n).sqrt();
+    if !(nl > 0.5) || (dot(r, r).sqrt() - 1.0).abs() > 1e-3 || (dot(c, c).sqrt() - 1.0).abs() > 1e-3
+    {
+        return Err(Error::at(
+            &f0.file,
+            "ImageOrientationPatient is not two unit vectors at a right angle",
+        ));
+    }
+    let n = n.map(|x| x / nl);
+    frames.sort_by(|a, b| dot(a.pos, n).total_cmp(&dot(b.pos, n)));
+    let mut notes = Vec::new();
+    let k = frames.len();
+    let step = if k == 1 {
+        notes.push("one slice: slice spacing taken as the in-plane row spacing".into());
+        n.map(|x| x * f0.spacing[0])
+    } else {
+        let d: Vec<f64> = frames
+            .windows(2)
+            .map(|w| dot(w[1].pos, n) - dot(w[0].pos, n))
+            .collect();
+        let mean = (dot(frames[k - 1].pos, n) - dot(frames[0].pos, n)) / (k - 1) as f64;
+        if let Some(i) = d
+            .iter()
+            .position(|&x| x.abs() <= 1e-6 * mean.abs().max(1e-3))
+        {
+            return Err(Error::at(
+                &frames[i + 1].file,
+                format!(
+                    "two slices at one position ({:?}); the folder mixes acquisitions?",
+                    frames[i].pos
+                ),
+            ));
+        }
+        let tol = 1e-3 * mean.abs();
+        if let Some(i) = d.iter().position(|&x| (x - mean).abs() > tol) {
+            let lo = d.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = d.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            return Err(Error::at(
+                &frames[i + 1].file,
+                format!(
+                    "uneven slice spacing: {lo:.6} to {hi:.6} along the normal (mean {mean:.6}); \
+                     a slice missing? rendr reads evenly spaced series only"
+                ),
+            ));
+        }
+        let p0 = frames[0].pos;
+        let pk = frames[k - 1].pos;
+        let step: [f64; 3] = core::array::from_fn(|i| (pk[i] - p0[i]) / (k - 1) as f64);
+        let off = cross(step, n);
+        if dot(off, off).sqrt() > 1e-4 * mean.abs() {
+            notes.push("slice positions step off the normal (gantry tilt): a sheared grid".into());
+        }
+        step
+    };
+    let dirs = [
+        r.map(|x| x * f0.spacing[1]),
+        c.map(|x| x * f0.spacing[0]),
+        step,
+    ];
+    Ok((dirs, frames[0].pos, notes))
+}
+
+/// The stored pixel values of every frame, in order, in their own type.
+fn pixels(frames: &[Frame], l: &Layout) -> Result<Data> {
+    let per = (l.rows as usize) * (l.cols as usize);
+    let n = per
+        .checked_mul(frames.len())
+        .ok_or_else(|| Error::msg("the series is too large"))?;
+    let bytes = (n as u64).saturating_mul(u64::from(l.bits / 8));
+    crate::check_memory(
+        bytes,
+        &format!("{} slices of {} x {}", frames.len(), l.cols, l.rows),
+    )?;
+    let mut data = match (l.bits, l.signed) {
+        (8, false) => Data::U8(Vec::new()),
+        (8, true) => Data::I8(Vec::new()),
+        (16, false) => Data::U16(Vec::new()),
+        (16, true) => Data::I16(Vec::new()),
+        (32, false) => Data::U32(Vec::new()),
+        _ => Data::I32(Vec::new()),
+    };
+    crate::nrrd::each_data!(&mut data, v => crate::try_reserve(v, n, "the slices")?);
+    let raw = ConvertOptions::new().with_modality_lut(ModalityLutOption::None);
+    let mut open: Option<(PathBuf, dicom_object::DefaultDicomObject)> = None;
+    for f in frames {
+        if open.as_ref().map(|(p, _)| p) != Some(&f.file) {
+            let obj = dicom_object::open_file(&f.file)
+                .map_err(|e| Error::at(&f.file, format!("not a readable DICOM file: {e}")))?;
+            open = Some((f.file.clone(), obj));
+        }
+        let (_, obj) = open.as_ref().expect("opened above");
+        let ts = obj.meta().transfer_syntax().trim_end_matches('\0');
+        let dec = obj.decode_pixel_data().map_err(|e| {
+            Error::at(
+                &f.file,
+                format!(
+                    "can't decode pixel data in transfer syntax {}: {e}",
+                    syntax_name(ts)
+                ),
+            )
+        })?;
+        if dec.rows() != l.rows || dec.columns() != l.cols {
+            return Err(Error::at(
+                &f.file,
+                "decoded pixel data does not match Rows x Columns",
+            ));
+        }
+        let bad = |e: dicom_pixeldata::Error| Error::at(&f.file, format!("pixel data: {e}"));
+        macro_rules! take {
+            ($v:expr, $t:ty) => {{
+                let px: Vec<$t> = dec.to_vec_frame_with_options(f.index, &raw).map_err(bad)?;
+                if px.len() != per {
+                    return Err(Error::at(
+                        &f.file,
+                        "pixel data is shorter than Rows x Columns",
+                    ));
+                }
+                $v.extend_from_slice(&px);
+            }};
+        }
+        match &mut data {
+            Data::U8(v) => take!(v, u8),
+            Data::I8(v) => take!(v, i8),
+            Data::U16(v) => take!(v, u16),
+            Data::I16(v) => take!(v, i16),
+            Data::U32(v) => take!(v, u32),
+            Data::I32(v) => take!(v, i32),
+            _ => return Err(Error::msg("DICOM: no reader for this sample type")),
+        }
+    }
+    Ok(data)
+}
+
+/// The DICOM files reading `path` reads (a directory's slices).
+pub(super) fn input_files(path: &Path) -> Vec<PathBuf> {
+    let dir = if path.is_dir() {
+        Some(path)
+    } else if is_dicom(path) {
+        path.parent()
+    } else {
+        None
+    };
+    dir.and_then(|d| series_files(d).ok()).unwrap_or_default()
+}
