@@ -161,6 +161,27 @@ fn bad_dicom_series_are_refused_clearly() {
         assert!(err.contains(frag), "{sub}: {err:?} lacks {frag:?}");
         assert_eq!(err.trim().lines().count(), 1, "{sub}: {err}");
     }
+    // A lying element length is refused before anything is allocated for it.
+    let src = dir.join("dcm-oblique");
+    let first = std::fs::read_dir(&src)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let mut bytes = std::fs::read(&first).unwrap();
+    let at = bytes
+        .windows(6)
+        .position(|w| w == [0xE0, 0x7F, 0x10, 0x00, b'O', b'W'])
+        .expect("pixel data element");
+    bytes[at + 8..at + 12].copy_from_slice(&0xFFFF_FF00u32.to_le_bytes());
+    let lying = dir.join("bad/lying");
+    std::fs::create_dir_all(&lying).unwrap();
+    std::fs::write(lying.join("slice"), &bytes).unwrap();
+    let o = rendr(&dir, &["info", "bad/lying"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("(7FE0,0010) claims 4294967040 bytes"), "{err}");
     // One file of a folder with two series picks its own series.
     let d = dir.join("bad/two-series");
     let mut names: Vec<_> = std::fs::read_dir(&d)

@@ -58,7 +58,7 @@ struct Layout {
     signed: bool,
 }
 
-fn elem<'a>(o: &'a InMemDicomObject, tag: dicom_object::Tag) -> Option<&'a InMemElement> {
+fn elem(o: &InMemDicomObject, tag: dicom_object::Tag) -> Option<&InMemElement> {
     o.element_opt(tag).ok().flatten()
 }
 
@@ -115,8 +115,23 @@ fn grouped(
     floats(top, tag, name, n)
 }
 
+/// What one file holds, from its header (pixel data not read).
+#[derive(Debug)]
+struct FileInfo {
+    /// SeriesInstanceUID.
+    uid: String,
+    layout: Layout,
+    frames: Vec<Frame>,
+    /// Transfer syntax UID.
+    ts: String,
+}
+
+/// The index-to-world columns and origin of a series, and what was noted.
+type Placed = ([[f64; 3]; 3], [f64; 3], Vec<String>);
+
 /// The series UID, layout and frames of one file (header only, pixel data not read).
-fn frames_of(path: &Path) -> Result<(String, Layout, Vec<Frame>, String)> {
+fn frames_of(path: &Path) -> Result<FileInfo> {
+    check_lengths(path)?;
     let obj = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
@@ -257,7 +272,144 @@ fn frames_of(path: &Path) -> Result<(String, Layout, Vec<Frame>, String)> {
             rescale: (slope, inter),
         });
     }
-    Ok((uid, layout, frames, ts))
+    Ok(FileInfo {
+        uid,
+        layout,
+        frames,
+        ts,
+    })
+}
+
+/// Refuses a file in which an element claims more bytes than the file holds after it.
+///
+/// `dicom-parser` reserves and zeroes an element's stated length before reading it, so
+/// a lying length (up to 4 GiB) would cost that much memory before the read fails; this
+/// walk of the element headers (descending into sequences and items, through the
+/// fragments of encapsulated pixel data) bounds every length by the file's size first.
+/// Deflated data sets are not walked (their lengths are bounded by the inflated size).
+fn check_lengths(path: &Path) -> Result<()> {
+    use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
+    use std::io::{Read, Seek, SeekFrom};
+    const UNDEF: u32 = 0xFFFF_FFFF;
+    let io = |e: std::io::Error| Error::io(path, "can't read", e);
+    let f = std::fs::File::open(path).map_err(io)?;
+    let len = f.metadata().map_err(io)?.len();
+    let mut r = std::io::BufReader::new(f);
+    r.seek(SeekFrom::Start(132)).map_err(io)?;
+    let mut pos = 132u64;
+    let (mut explicit, mut big) = (true, false);
+    let mut in_meta = true;
+    let mut fragments = false;
+    let mut b = [0u8; 8];
+    while pos + 8 <= len {
+        r.read_exact(&mut b).map_err(io)?;
+        pos += 8;
+        if in_meta && u16::from_le_bytes([b[0], b[1]]) != 2 {
+            // The data set starts: its encoding follows the transfer syntax.
+            in_meta = false;
+        }
+        let (g, e) = if big && !in_meta {
+            (
+                u16::from_be_bytes([b[0], b[1]]),
+                u16::from_be_bytes([b[2], b[3]]),
+            )
+        } else {
+            (
+                u16::from_le_bytes([b[0], b[1]]),
+                u16::from_le_bytes([b[2], b[3]]),
+            )
+        };
+        let u32_at = |x: &[u8]| -> u32 {
+            let a: [u8; 4] = [x[0], x[1], x[2], x[3]];
+            if big && !in_meta {
+                u32::from_be_bytes(a)
+            } else {
+                u32::from_le_bytes(a)
+            }
+        };
+        let u16_at = |x: &[u8]| -> u16 {
+            if big && !in_meta {
+                u16::from_be_bytes([x[0], x[1]])
+            } else {
+                u16::from_le_bytes([x[0], x[1]])
+            }
+        };
+        let (l, sq) = if g == 0xFFFE {
+            // Item and delimiters: a 4-byte length, no VR.
+            let l = u32_at(&b[4..]);
+            if e == 0xE0DD {
+                fragments = false;
+            }
+            if e != 0xE000 || l == UNDEF || !fragments {
+                continue; // an item's elements follow (or a delimiter)
+            }
+            (l, false)
+        } else if explicit || in_meta {
+            let vr = [b[4], b[5]];
+            let long = matches!(
+                &vr,
+                b"OB"
+                    | b"OD"
+                    | b"OF"
+                    | b"OL"
+                    | b"OV"
+                    | b"OW"
+                    | b"SQ"
+                    | b"UC"
+                    | b"UN"
+                    | b"UR"
+                    | b"UT"
+                    | b"SV"
+                    | b"UV"
+            );
+            let l = if long {
+                let mut x = [0u8; 4];
+                r.read_exact(&mut x).map_err(io)?;
+                pos += 4;
+                u32_at(&x)
+            } else {
+                u32::from(u16_at(&b[6..]))
+            };
+            (l, &vr == b"SQ")
+        } else {
+            let sq = dicom_dictionary_std::StandardDataDictionary
+                .by_tag(dicom_object::Tag(g, e))
+                .is_some_and(|d| matches!(d.vr(), VirtualVr::Exact(dicom_core::VR::SQ)));
+            (u32_at(&b[4..]), sq)
+        };
+        if l == UNDEF {
+            fragments = (g, e) == (0x7FE0, 0x0010);
+            continue;
+        }
+        if sq {
+            continue; // its items follow
+        }
+        if u64::from(l) > len - pos {
+            return Err(Error::at(
+                path,
+                format!(
+                    "element ({g:04X},{e:04X}) claims {l} bytes; the file has {} left",
+                    len - pos
+                ),
+            ));
+        }
+        if in_meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
+            let mut uid = vec![0u8; l as usize];
+            r.read_exact(&mut uid).map_err(io)?;
+            let uid = String::from_utf8_lossy(&uid);
+            match uid.trim_end_matches(['\0', ' ']) {
+                "1.2.840.10008.1.2" => explicit = false,
+                "1.2.840.10008.1.2.2" => big = true,
+                // Deflated: the rest is compressed; not walked.
+                "1.2.840.10008.1.2.1.99" => return Ok(()),
+                _ => {}
+            }
+        } else {
+            r.seek_relative(i64::from(l)).map_err(io)?;
+        }
+        pos += u64::from(l);
+    }
+    Ok(())
 }
 
 /// True when `path` starts like a DICOM Part 10 file (preamble + `DICM`).
@@ -275,7 +427,7 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
     let (dir, only) = if path.is_dir() {
         (path.to_path_buf(), None)
     } else {
-        let (uid, ..) = frames_of(path)?;
+        let uid = frames_of(path)?.uid;
         (
             path.parent().unwrap_or(Path::new(".")).to_path_buf(),
             Some(uid),
@@ -285,24 +437,21 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
     if files.is_empty() {
         return Err(Error::at(&dir, "holds no DICOM files"));
     }
-    // Group by series; a directory must hold one (or the file given picks it).
-    let mut series: Vec<(String, Vec<(Layout, Vec<Frame>, String)>)> = Vec::new();
-    for f in &files {
-        let (uid, layout, frames, ts) = frames_of(f)?;
-        match series.iter_mut().find(|(u, _)| *u == uid) {
-            Some((_, v)) => v.push((layout, frames, ts)),
-            None => series.push((uid, vec![(layout, frames, ts)])),
+    // A directory must hold one series (or the file given picks its own).
+    let infos = files
+        .iter()
+        .map(|f| frames_of(f))
+        .collect::<Result<Vec<FileInfo>>>()?;
+    let mut uids: Vec<&str> = Vec::new();
+    for i in &infos {
+        if !uids.contains(&i.uid.as_str()) {
+            uids.push(&i.uid);
         }
     }
-    let parts = match only {
-        Some(uid) => series
-            .into_iter()
-            .find(|(u, _)| *u == uid)
-            .map(|(_, v)| v)
-            .unwrap_or_default(),
-        None if series.len() == 1 => series.pop().map(|(_, v)| v).unwrap_or_default(),
+    let want = match only {
+        Some(uid) => uid,
+        None if uids.len() == 1 => uids[0].to_string(),
         None => {
-            let uids: Vec<&str> = series.iter().map(|(u, _)| u.as_str()).collect();
             return Err(Error::at(
                 &dir,
                 format!(
@@ -310,23 +459,32 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
                     uids.len(),
                     uids.join(", ")
                 ),
-            ));
+            ))
         }
     };
-    let layout = parts[0].0.clone();
+    let parts: Vec<FileInfo> = infos.into_iter().filter(|i| i.uid == want).collect();
+    let Some(layout) = parts.first().map(|p| p.layout.clone()) else {
+        return Err(Error::at(
+            path,
+            "no DICOM file of its series in its folder (files need the DICM preamble)",
+        ));
+    };
     let mut frames: Vec<Frame> = Vec::new();
     let mut syntaxes: Vec<String> = Vec::new();
-    for (l, fr, ts) in parts {
-        if l != layout {
+    for p in parts {
+        if p.layout != layout {
             return Err(Error::at(
-                &fr[0].file,
-                format!("its slices are {l:?}, the series' first are {layout:?}"),
+                &p.frames[0].file,
+                format!(
+                    "its slices are {:?}, the series' first are {layout:?}",
+                    p.layout
+                ),
             ));
         }
-        if !syntaxes.contains(&ts) {
-            syntaxes.push(ts);
+        if !syntaxes.contains(&p.ts) {
+            syntaxes.push(p.ts);
         }
-        frames.extend(fr);
+        frames.extend(p.frames);
     }
     let (dirs, origin, notes) = geometry(&mut frames)?;
     let data = pixels(&frames, &layout)?;
@@ -419,7 +577,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Sorts the frames along the normal and checks their spacing; the index-to-world
 /// columns, origin and notes.
-fn geometry(frames: &mut [Frame]) -> Result<([[f64; 3]; 3], [f64; 3], Vec<String>)> {
+fn geometry(frames: &mut [Frame]) -> Result<Placed> {
     let f0 = frames[0].clone();
     let close = |a: &[f64], b: &[f64], tol: f64| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol);
     for f in frames.iter() {

@@ -135,11 +135,12 @@ fn is_metaimage(head: &[u8]) -> bool {
     KEYS.iter().any(|key| k.trim().eq_ignore_ascii_case(key))
 }
 
+/// The first bytes of an input and a reader that starts over from them.
+type Peeked<'a> = (Vec<u8>, std::io::BufReader<Box<dyn Read + 'a>>);
+
 /// Reads up to [`PEEK`] bytes of `src` (fewer only at its end) and returns them with a
 /// reader that yields them again, followed by the rest of `src`.
-fn peek<'a>(
-    mut src: Box<dyn Read + 'a>,
-) -> Result<(Vec<u8>, std::io::BufReader<Box<dyn Read + 'a>>)> {
+fn peek<'a>(mut src: Box<dyn Read + 'a>) -> Result<Peeked<'a>> {
     let mut head = Vec::new();
     (&mut src)
         .take(PEEK as u64)
