@@ -56,3 +56,32 @@ fn replay_loaders_and_text() {
         let _ = files::lights_from_nrrd(&p, n);
     }
 }
+
+#[test]
+fn replay_formats() {
+    let v = inputs("formats");
+    assert!(v.len() >= 10, "seeds missing: {v:?}");
+    let mut loaded = 0;
+    for p in &v {
+        // Each input alone in a folder, as the fuzz target reads it.
+        let dir = rnd_tests::tmpdir(&format!(
+            "replay-formats-{}",
+            p.file_name().unwrap().to_string_lossy()
+        ));
+        let file = dir.join("volume");
+        std::fs::copy(p, &file).unwrap();
+        if let Ok(l) = rnd_std::formats::read(&file, 1) {
+            loaded += usize::from(volume_io::volume_from_nrrd(l.nrrd).is_ok());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    // The seeds written by nibabel, SimpleITK and pydicom load; the broken ones don't.
+    let broken = v
+        .iter()
+        .filter(|p| {
+            let n = p.file_name().unwrap().to_string_lossy();
+            n.starts_with("truncated") || n.starts_with("jpeg2000")
+        })
+        .count();
+    assert!(loaded >= 9 && loaded + broken <= v.len(), "{loaded} of {} loaded", v.len());
+}
