@@ -83,5 +83,9 @@ fn replay_formats() {
             n.starts_with("truncated") || n.starts_with("jpeg2000")
         })
         .count();
-    assert!(loaded >= 9 && loaded + broken <= v.len(), "{loaded} of {} loaded", v.len());
+    assert!(
+        loaded >= 9 && loaded + broken <= v.len(),
+        "{loaded} of {} loaded",
+        v.len()
+    );
 }

@@ -19,7 +19,12 @@ pub static SPEC: CmdSpec = CmdSpec {
            the volume are reported as outside.",
     response_files: false,
     opts: &[
-        req(&["i", "-input"], 1, "vol", "input volume"),
+        req(
+            &["i", "-input"],
+            1,
+            "vol",
+            "input volume: NRRD, NIfTI, MetaImage or DICOM (a series folder)",
+        ),
         req(&["w"], 3, "x y z", "world-space position"),
         flag(
             &["wtoi"],

@@ -32,7 +32,7 @@ pub static SPEC: CmdSpec = CmdSpec {
     response_files: true,
     opts: with_camera_opts!(
         [
-            req(&["i", "-input"], 1, "vol", "input volume"),
+            req(&["i", "-input"], 1, "vol", "input volume: NRRD, NIfTI, MetaImage or DICOM (a series folder)"),
             req(
                 &["k", "-kern"],
                 1,
