@@ -315,6 +315,22 @@ fn hand_made_nifti_reads_and_bad_files_fail_clearly() {
         VolumeData::I16(d) => assert_eq!(d[1], i16::from_le_bytes([2, 3])),
         _ => panic!("short expected"),
     }
+    // From stdin, too (recognised by the same peek, nothing read twice).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_rendr"))
+        .args(["info", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let bytes = std::fs::read(dir.join("good.nii")).unwrap();
+    std::io::Write::write_all(&mut child.stdin.take().unwrap(), &bytes).unwrap();
+    let o = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && text.contains("read as NIfTI-1"),
+        "{text}"
+    );
+    assert!(text.contains("2 by 3 by 4 volume"), "{text}");
     let bad: [(&str, Vec<u8>, &str); 7] = [
         (
             "trunc.nii",

@@ -166,11 +166,13 @@ pub fn read(path: &Path, threads: usize) -> Result<Loaded> {
 
 fn read_inner(path: &Path, threads: usize) -> Result<Loaded> {
     let stdin = path.as_os_str() == "-";
+    let mut regular = false;
     if !stdin {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, "can't read", e))?;
         if meta.is_dir() {
             return read_dicom(path);
         }
+        regular = meta.is_file();
     }
     let src: Box<dyn Read> = if stdin {
         Box::new(std::io::stdin().lock())
@@ -193,13 +195,23 @@ fn read_inner(path: &Path, threads: usize) -> Result<Loaded> {
     match format {
         Some(f @ (Format::Nifti1 | Format::Nifti2)) => read_nifti(f, &mut r, path, false),
         Some(Format::MetaImage) => read_metaimage(&mut r, path),
-        Some(Format::Dicom) => read_dicom(path),
+        Some(Format::Dicom) if regular => read_dicom(path),
+        Some(Format::Dicom) => Err(Error::msg(
+            "a DICOM file read from a stream: DICOM series are read from files (name the \
+             folder or one file of the series)",
+        )),
         Some(Format::Nrrd) | None => {
-            let nrrd = if stdin {
-                nrrd::read::read_from(r, Path::new("."), false)?
-            } else {
+            let nrrd = if regular {
+                // Reopened: regular files are read with seeks and several threads.
                 drop(r);
                 nrrd::read_with_threads(path, threads)?
+            } else {
+                // A pipe or stdin: the bytes already peeked are read again from `r`.
+                let dir = match path.parent() {
+                    Some(d) if !stdin => d,
+                    _ => Path::new("."),
+                };
+                nrrd::read::read_from(r, dir, false)?
             };
             Ok(Loaded {
                 nrrd,
@@ -254,7 +266,9 @@ fn read_dicom(_: &Path) -> Result<Loaded> {
 /// gives just itself (the reader reports the problem).
 pub fn input_files(path: &Path) -> Vec<PathBuf> {
     let mut out = nrrd::input_files(path);
-    if path.as_os_str() == "-" {
+    // Only regular files and folders are looked into: reading a pipe would eat its data.
+    let kind = std::fs::metadata(path).map(|m| (m.is_file(), m.is_dir()));
+    if path.as_os_str() == "-" || !matches!(kind, Ok((true, _)) | Ok((_, true))) {
         return out;
     }
     #[cfg(feature = "dicom")]
