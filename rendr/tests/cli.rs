@@ -886,6 +886,14 @@ fn bad_input_corpus() {
         ("ragged.txt", "ragged rows"),
         ("unknown-type.nrrd", "unknown or unsupported type"),
         ("lut-3-channels.nrrd", "volume must be 3-D"),
+        ("nifti-truncated.nii", "data is truncated"),
+        ("nifti-huge-dims.nii", "would need"),
+        ("nifti-bitpix.nii", "bitpix 8 does not match datatype 4"),
+        ("nifti-in-header-offset.nii", "vox_offset 100 is inside the header"),
+        ("gzip-not-nifti.gz", "does not hold a NIfTI file"),
+        ("mhd-missing-data.mhd", "no-such-file.raw"),
+        ("mha-channels.mha", "ElementNumberOfChannels 3"),
+        ("dicom-lying-length.dcm", "claims 4294967040 bytes"),
     ];
     for (f, frag) in vol_cases {
         let p = corpus(f);
