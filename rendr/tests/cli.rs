@@ -889,7 +889,10 @@ fn bad_input_corpus() {
         ("nifti-truncated.nii", "data is truncated"),
         ("nifti-huge-dims.nii", "would need"),
         ("nifti-bitpix.nii", "bitpix 8 does not match datatype 4"),
-        ("nifti-in-header-offset.nii", "vox_offset 100 is inside the header"),
+        (
+            "nifti-in-header-offset.nii",
+            "vox_offset 100 is inside the header",
+        ),
         ("gzip-not-nifti.gz", "does not hold a NIfTI file"),
         ("mhd-missing-data.mhd", "no-such-file.raw"),
         ("mha-channels.mha", "ElementNumberOfChannels 3"),
