@@ -11,7 +11,7 @@ use rnd_core::affine::Affine4;
 use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
-use rnd_core::light::{Light, Phong};
+use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::probe::Probe;
 use rnd_core::kernel::Kernel;
 use rnd_core::march::Loop;
@@ -82,7 +82,7 @@ fuzz_target!(|data: &[u8]| {
     p.time = false;
     let lut = Lut::new(b.f64(), b.f64(), (0..4).map(|_| [b.f64() as f32, 0.5, 0.2, b.f64() as f32]).collect()).ok();
     let lev = Levoy::new(vec![[b.f64() as f32, b.f64() as f32, b.f64() as f32]]).ok();
-    let lights: Vec<Light> = Light::new([1.0, 0.9, 0.8], [b.f64(), b.f64(), b.f64()], b.u8() % 2 == 0).into_iter().collect();
+    let lights: Vec<Light> = Light::new([1.0, 0.9, 0.8], [b.f64(), b.f64(), b.f64()], if b.u8() % 2 == 0 { LightSpace::View } else { LightSpace::World }).into_iter().collect();
     let kernel = KernelName::ALL[(b.u8() % 7) as usize];
     // Don't let the fuzzer ask for millions of samples per ray.
     if p.plane_sep > 0.0 && (p.camera.fc - p.camera.nc) / p.plane_sep > 2000.0 {

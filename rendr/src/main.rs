@@ -93,6 +93,51 @@ fn report(cmd: &str, msg: &str) {
     eprintln!("rendr{sep}{cmd}: {}", rnd_std::error::escape_controls(&one));
 }
 
+/// The option that sets a library parameter.
+fn option_of(p: rnd_core::Param) -> Option<&'static str> {
+    use rnd_core::Param as P;
+    Some(match p {
+        P::CameraFrom => "-fr",
+        P::CameraAt => "-at",
+        P::CameraUp => "-up",
+        P::CameraNear => "-nc",
+        P::CameraFar => "-fc",
+        P::CameraFov => "-fov",
+        P::ImageSize => "-sz",
+        P::PlaneSep => "-s",
+        P::UnitStep => "-us",
+        P::AlphaNear1 => "-a1",
+        P::Phong => "-ph",
+        P::DepthCue => "-dcn/-dcf",
+        P::Probe => "-p",
+        P::Blend => "-b",
+        P::Lut => "-lut",
+        P::LutDomain => "-mm",
+        P::Lights => "-lit",
+        P::Reference => "-ref",
+        P::Volume => "-i",
+        P::SdgSizes => "-sz",
+        P::SdgLengths => "-l",
+        P::SdgFunction => "-w",
+        _ => return None,
+    })
+}
+
+/// An error's one-line text, with the option of the parameter the library names (when
+/// it does) put first: the library speaks of "plane separation", the user typed `-s`.
+fn with_option(e: &anyhow::Error) -> String {
+    let text = format!("{e:#}");
+    let param = e.chain().find_map(|c| {
+        c.downcast_ref::<rnd_core::Error>()
+            .and_then(|x| x.param)
+            .or_else(|| c.downcast_ref::<rnd_std::Error>().and_then(|x| x.param))
+    });
+    match param.and_then(option_of) {
+        Some(o) if !text.starts_with(o) => format!("{o}: {text}"),
+        _ => text,
+    }
+}
+
 fn main() -> ExitCode {
     let code = run();
     out::flush();
@@ -155,7 +200,7 @@ fn run() -> ExitCode {
     match (c.run)(&parsed) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            report(c.spec.name, &format!("{e:#}"));
+            report(c.spec.name, &with_option(&e));
             ExitCode::from(1)
         }
     }

@@ -41,6 +41,24 @@ impl Affine4 {
         }
     }
 
+    /// An axis-aligned grid: `spacing` world units between samples along each index axis,
+    /// sample (0, 0, 0) at world point `origin`.
+    ///
+    /// ```
+    /// use rnd_core::affine::Affine4;
+    ///
+    /// let itow = Affine4::from_spacing([0.5, 0.5, 2.0], [10.0, 0.0, -4.0]);
+    /// assert_eq!(itow.point([2.0, 0.0, 1.0]), [11.0, 0.0, -2.0]);
+    /// ```
+    pub fn from_spacing(spacing: [f64; 3], origin: [f64; 3]) -> Self {
+        Affine4::from_columns(
+            [spacing[0], 0.0, 0.0],
+            [0.0, spacing[1], 0.0],
+            [0.0, 0.0, spacing[2]],
+            origin,
+        )
+    }
+
     /// Entry at row `r`, column `c`.
     #[inline(always)]
     pub fn at(&self, r: usize, c: usize) -> f64 {

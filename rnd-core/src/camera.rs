@@ -2,9 +2,10 @@
 //! (SPEC §5.2), and the derived view frame.
 
 use crate::affine::Affine4;
-use crate::error::{Error, ErrorKind, Result};
+use crate::error::{Error, ErrorKind, Param, Result};
 use crate::math;
-use glam::DVec3;
+/// The f64 3-vector of the camera frame (re-exported from `glam`).
+pub use glam::DVec3;
 
 /// What the user gives (`-fr -at -up -nc -fc -fov -sz -ortho`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,6 +27,117 @@ pub struct CameraSpec {
     pub size: [u32; 2],
     /// Orthographic instead of perspective projection.
     pub ortho: bool,
+}
+
+impl CameraSpec {
+    /// A perspective camera at `from` looking at `at`, with the defaults a first
+    /// picture wants: up +z (or +y when looking along z), a 20° field of view, a 256 ×
+    /// 256 image, and near and far planes half the eye distance before and after the
+    /// look-at point. Change any of it with the builder methods, then validate with
+    /// [`Camera::new`] (or let [`crate::render::RenderSpec::new`] do it).
+    ///
+    /// ```
+    /// use rnd_core::camera::{Camera, CameraSpec};
+    ///
+    /// let spec = CameraSpec::looking_at([0.0, -50.0, 0.0], [0.0; 3])
+    ///     .fov(30.0)
+    ///     .size(320, 240)
+    ///     .clip(-20.0, 20.0);
+    /// let cam = Camera::new(spec).unwrap();
+    /// assert_eq!(cam.d, 50.0);
+    /// assert_eq!(cam.spec.up, [0.0, 0.0, 1.0]);
+    /// ```
+    pub fn looking_at(from: [f64; 3], at: [f64; 3]) -> CameraSpec {
+        let d = math::v3::len(math::v3::sub(from, at));
+        let dir = math::v3::sub(at, from);
+        let up = if dir[0] == 0.0 && dir[1] == 0.0 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [0.0, 0.0, 1.0]
+        };
+        CameraSpec {
+            fr: from,
+            at,
+            up,
+            nc: -d / 2.0,
+            fc: d / 2.0,
+            fov: 20.0,
+            size: [256, 256],
+            ortho: false,
+        }
+    }
+
+    /// A camera that shows the whole box of world points `corners` (e.g. a volume's
+    /// [`crate::volume::Volume::world_corners`]), looking at its centre from direction
+    /// `towards_eye` (any non-zero length; the eye sits that way from the centre), with
+    /// a 20° field of view, near and far planes just around the box and a 256 × 256
+    /// image. `None` when the corners or the direction are not finite, there are no
+    /// corners or the direction is zero.
+    ///
+    /// ```
+    /// use rnd_core::camera::CameraSpec;
+    ///
+    /// let box_ = [[0.0, 0.0, 0.0], [10.0, 10.0, 10.0]];
+    /// let spec = CameraSpec::framing(&box_, [0.0, 0.0, 1.0]).unwrap().orthographic(true);
+    /// assert_eq!(spec.at, [5.0, 5.0, 5.0]);
+    /// assert!(spec.fr[2] > 10.0 && spec.nc < 0.0 && spec.fc > 0.0);
+    /// ```
+    pub fn framing(corners: &[[f64; 3]], towards_eye: [f64; 3]) -> Option<CameraSpec> {
+        let first = *corners.first()?;
+        let (mut lo, mut hi) = (first, first);
+        for c in corners {
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
+        let centre: [f64; 3] = core::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
+        let radius = corners
+            .iter()
+            .map(|c| math::v3::len(math::v3::sub(*c, centre)))
+            .fold(0.0f64, f64::max)
+            .max(1e-9);
+        let len = math::v3::len(towards_eye);
+        if !(len > 0.0 && len.is_finite() && radius.is_finite() && math::v3::finite(centre)) {
+            return None;
+        }
+        let fov: f64 = 20.0;
+        // The bounding sphere fits the vertical field of view with 5% to spare.
+        let d = 1.05 * radius / math::sin(fov.to_radians() / 2.0);
+        let from: [f64; 3] = core::array::from_fn(|a| centre[a] + towards_eye[a] / len * d);
+        let mut spec = CameraSpec::looking_at(from, centre);
+        spec.nc = -radius;
+        spec.fc = radius;
+        Some(spec)
+    }
+
+    /// Sets the up vector (any length; not parallel to the view direction).
+    pub fn up(mut self, up: [f64; 3]) -> CameraSpec {
+        self.up = up;
+        self
+    }
+    /// Sets the vertical field of view, degrees (in (0, 160)).
+    pub fn fov(mut self, degrees: f64) -> CameraSpec {
+        self.fov = degrees;
+        self
+    }
+    /// Sets the near and far clipping planes, as distances along the view direction
+    /// from the look-at point (negative: towards the eye).
+    pub fn clip(mut self, near: f64, far: f64) -> CameraSpec {
+        self.nc = near;
+        self.fc = far;
+        self
+    }
+    /// Sets the image size in pixels.
+    pub fn size(mut self, width: u32, height: u32) -> CameraSpec {
+        self.size = [width, height];
+        self
+    }
+    /// Chooses an orthographic (`true`) or perspective projection.
+    pub fn orthographic(mut self, ortho: bool) -> CameraSpec {
+        self.ortho = ortho;
+        self
+    }
 }
 
 /// A validated camera with its derived frame.
@@ -57,8 +169,8 @@ pub struct Camera {
     pub wdth: f64,
 }
 
-fn cam_err(msg: alloc::string::String) -> Error {
-    Error::new(ErrorKind::Camera, msg)
+fn cam_err(param: Param, msg: alloc::string::String) -> Error {
+    Error::about(ErrorKind::Camera, param, msg)
 }
 
 impl Camera {
@@ -68,69 +180,107 @@ impl Camera {
         let fr = DVec3::from_array(spec.fr);
         let at = DVec3::from_array(spec.at);
         let up = DVec3::from_array(spec.up);
-        for (name, x) in [("fr", spec.fr), ("at", spec.at), ("up", spec.up)] {
+        for (param, x) in [
+            (Param::CameraFrom, spec.fr),
+            (Param::CameraAt, spec.at),
+            (Param::CameraUp, spec.up),
+        ] {
             if !math::v3::finite(x) {
-                return Err(cam_err(format!(
-                    "-{name}: not all finite ({} {} {})",
-                    x[0], x[1], x[2]
-                )));
+                return Err(cam_err(
+                    param,
+                    format!(
+                        "{}: not all finite ({} {} {})",
+                        param.as_str(),
+                        x[0],
+                        x[1],
+                        x[2]
+                    ),
+                ));
             }
         }
-        for (name, x) in [("nc", spec.nc), ("fc", spec.fc), ("fov", spec.fov)] {
+        for (param, x) in [
+            (Param::CameraNear, spec.nc),
+            (Param::CameraFar, spec.fc),
+            (Param::CameraFov, spec.fov),
+        ] {
             if !x.is_finite() {
-                return Err(cam_err(format!("-{name}: {x} is not finite")));
+                return Err(cam_err(
+                    param,
+                    format!("{}: {x} is not finite", param.as_str()),
+                ));
             }
         }
         if !(spec.fov > 0.0 && spec.fov < 160.0) {
-            return Err(cam_err(format!(
-                "-fov: need 0 < FOV < 160 degrees (got {})",
-                spec.fov
-            )));
+            return Err(cam_err(
+                Param::CameraFov,
+                format!(
+                    "field of view must be in (0, 160) degrees (got {})",
+                    spec.fov
+                ),
+            ));
         }
         if spec.size[0] == 0 || spec.size[1] == 0 {
-            return Err(cam_err(format!(
-                "-sz: image sizes must be > 0 (got {} {})",
-                spec.size[0], spec.size[1]
-            )));
+            return Err(cam_err(
+                Param::ImageSize,
+                format!(
+                    "image sizes must be > 0 (got {} {})",
+                    spec.size[0], spec.size[1]
+                ),
+            ));
         }
         if spec.nc >= spec.fc {
-            return Err(cam_err(format!(
-                "-nc/-fc: near clip {} must be less than far clip {}",
-                spec.nc, spec.fc
-            )));
+            return Err(cam_err(
+                Param::CameraNear,
+                format!(
+                    "near clip {} must be less than far clip {}",
+                    spec.nc, spec.fc
+                ),
+            ));
         }
         let diff = fr - at;
         let d = diff.length();
         if !(d > 0.0) || !d.is_finite() {
-            return Err(cam_err(format!(
-                "-fr/-at: look-from equals look-at ({} {} {})",
-                spec.fr[0], spec.fr[1], spec.fr[2]
-            )));
+            return Err(cam_err(
+                Param::CameraFrom,
+                format!(
+                    "look-from equals look-at ({} {} {})",
+                    spec.fr[0], spec.fr[1], spec.fr[2]
+                ),
+            ));
         }
         let n = diff / d;
         let uc = up.cross(n);
         let ul = uc.length();
         if !(ul > 1e-10 * up.length()) || up.length() == 0.0 {
-            return Err(cam_err(format!(
-                "-up: up vector ({} {} {}) is zero or parallel to the view direction",
-                spec.up[0], spec.up[1], spec.up[2]
-            )));
+            return Err(cam_err(
+                Param::CameraUp,
+                format!(
+                    "up vector ({} {} {}) is zero or parallel to the view direction",
+                    spec.up[0], spec.up[1], spec.up[2]
+                ),
+            ));
         }
         let u = uc / ul;
         let v = n.cross(u);
         let ncv = d + spec.nc;
         let fcv = d + spec.fc;
         if !spec.ortho && ncv <= 0.0 {
-            return Err(cam_err(format!(
-                "-nc: near plane {} puts it at or behind the eye (look-from is {} from look-at)",
-                crate::error::Num(spec.nc),
-                crate::error::Num(d)
-            )));
+            return Err(cam_err(
+                Param::CameraNear,
+                format!(
+                    "near plane {} puts it at or behind the eye (look-from is {} from look-at)",
+                    crate::error::Num(spec.nc),
+                    crate::error::Num(d)
+                ),
+            ));
         }
         if !(fcv > ncv) {
-            return Err(cam_err(format!(
-                "-nc/-fc: near and far planes coincide in floating point at distance {d} from the eye"
-            )));
+            return Err(cam_err(
+                Param::CameraNear,
+                format!(
+                    "near and far planes coincide in floating point at distance {d} from the eye"
+                ),
+            ));
         }
         let hght = 2.0 * d * math::tan(spec.fov.to_radians() / 2.0);
         let ar = spec.size[0] as f64 / spec.size[1] as f64;

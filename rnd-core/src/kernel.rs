@@ -7,7 +7,8 @@
 
 use core::fmt;
 use core::str::FromStr;
-use num_traits::Float;
+/// The float trait the kernel formulas are written over (re-exported from `num-traits`).
+pub use num_traits::Float;
 
 use crate::error::{Error, ErrorKind};
 

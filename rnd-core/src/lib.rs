@@ -1,38 +1,42 @@
 //! # rnd-core: the engine of the rendr volume renderer
 //!
-//! `#![no_std]` (with `alloc`): no IO, no threads, no printing. Everything a ray caster
+//! `no_std` (with `alloc`): no IO, no threads, no printing. Everything a ray caster
 //! needs, generic over the voxel type (`f32` / `i16`, [`voxel::Voxel`]) and over the
 //! reconstruction kernel with its support as a const generic ([`kernel::Kernel<S>`]).
+//! [`prelude`] brings in what a program that renders or probes needs.
 //!
 //! How data moves:
 //!
-//! 1. A [`volume::Volume`] borrows samples and knows its index-to-world matrix
-//!    ([`affine::Affine4`]).
-//! 2. A [`camera::Camera`] turns look-from/look-at/up/FOV into a view frame.
+//! 1. A [`volume::Volume`] borrows samples (an [`volume::OwnedVolume`] holds them) and
+//!    knows its index-to-world matrix ([`affine::Affine4`]).
+//! 2. A [`camera::CameraSpec`] (look-from/look-at/up, clipping, FOV, image size; built
+//!    with [`camera::CameraSpec::looking_at`] or [`camera::CameraSpec::framing`])
+//!    becomes a view frame ([`camera::Camera`]).
 //! 3. A [`render::RenderSpec`] validates all parameters once (probe, blend, LUT
 //!    [`txf::Lut`], Levoy opacity [`txf::Levoy`], lights [`light::Light`]).
-//! 4. [`render::dispatch`] turns the run-time (voxel type, kernel name) into one
-//!    monomorphized call; below it a [`convo::Convo`] evaluates the separable 3-D
-//!    convolution at each ray sample, the [`probe::Probe`] says what is measured, and a
-//!    [`blend::Accum`] reduces the samples to a pixel.
+//! 4. [`render::render`] casts one ray per pixel: the run-time (voxel type, kernel name)
+//!    becomes one monomorphized loop, which reconstructs the volume by separable 3-D
+//!    convolution at each sample, measures the [`probe::Probe`] and reduces the samples
+//!    to a pixel with the [`blend::Blend`].
 //!
 //! ```
-//! use rnd_core::{affine::Affine4, camera::CameraSpec, kernel::KernelName};
-//! use rnd_core::render::{render, AnyVolume, RenderParams, RenderSpec};
-//! use rnd_core::volume::Volume;
+//! use rnd_core::prelude::*;
 //!
 //! // A 4x4x4 volume of ones centred on the origin, viewed from +z.
-//! let data = vec![1.0f32; 64];
-//! let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-1.5, -1.5, -1.5]);
-//! let vol = Volume::new(&data, [4, 4, 4], itow).unwrap();
-//! let cam = CameraSpec { fr: [0., 0., 10.], at: [0., 0., 0.], up: [0., 1., 0.], nc: -3.,
-//!     fc: 3., fov: 10., size: [4, 4], ortho: true };
+//! let geom = Affine4::from_spacing([1.0; 3], [-1.5; 3]);
+//! let vol = OwnedVolume::from_fn([4, 4, 4], geom, |_| 1.0f32).unwrap();
+//! let cam = CameraSpec::looking_at([0., 0., 10.], [0., 0., 0.])
+//!     .up([0., 1., 0.])
+//!     .clip(-3.0, 3.0)
+//!     .fov(10.0)
+//!     .size(4, 4)
+//!     .orthographic(true);
 //! let spec = RenderSpec::new(RenderParams::new(cam), None, None, &[]).unwrap();
-//! let img = render(&spec, AnyVolume::F32(vol), KernelName::Tent).unwrap();
+//! let img = render(&spec, vol.view().into(), KernelName::Tent).unwrap();
 //! assert_eq!(img[0], 1.0); // max of the value along the central rays
 //! ```
 #![no_std]
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 #![deny(unsafe_code)]
 #![deny(clippy::undocumented_unsafe_blocks)]
 
@@ -46,17 +50,38 @@ pub mod convo;
 pub mod error;
 pub mod kernel;
 pub mod light;
+#[doc(hidden)]
 pub mod march;
+#[doc(hidden)]
 pub mod math;
 pub mod probe;
+#[doc(hidden)]
 pub mod refarith;
 pub mod render;
 pub mod sdg;
 #[allow(unsafe_code)]
+#[doc(hidden)]
 pub mod simd;
+#[doc(hidden)]
 pub mod skip;
 pub mod txf;
 pub mod volume;
 pub mod voxel;
 
-pub use error::{Error, ErrorKind, Result};
+pub use error::{Error, ErrorKind, Param, Result};
+
+/// The types and functions a program that renders or probes volumes uses, in one
+/// `use rnd_core::prelude::*;`.
+pub mod prelude {
+    pub use crate::affine::Affine4;
+    pub use crate::blend::Blend;
+    pub use crate::camera::{Camera, CameraSpec};
+    pub use crate::error::{Error, ErrorKind, Param, Result};
+    pub use crate::kernel::KernelName;
+    pub use crate::light::{Light, LightSpace, Phong};
+    pub use crate::probe::Probe;
+    pub use crate::render::{render, AnyVolume, Probed, RenderParams, RenderSpec};
+    pub use crate::txf::{Levoy, Lut, LutBuilder, Txf, TxfSpace};
+    pub use crate::volume::{OwnedVolume, Volume};
+    pub use crate::voxel::Voxel;
+}

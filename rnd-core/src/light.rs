@@ -6,16 +6,34 @@ use crate::camera::Camera;
 use crate::error::{Error, ErrorKind, Result};
 use crate::math::{self, v3};
 
-/// One directional light as given in a light file.
+/// The frame a light's direction is given in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LightSpace {
+    /// View space: (u, v, n) = right, up and backward (towards the eye) of the camera, so
+    /// the light moves with the camera.
+    View,
+    /// World space: fixed to the volume's world.
+    World,
+}
+
+/// One directional light.
+///
+/// ```
+/// use rnd_core::light::{Light, LightSpace};
+///
+/// // A white light over the viewer's right shoulder, moving with the camera.
+/// let key = Light::new([1.0; 3], [1.0, 1.0, 1.0], LightSpace::View).unwrap();
+/// assert_eq!(key.space, LightSpace::View);
+/// assert!(Light::new([1.0; 3], [0.0; 3], LightSpace::World).is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Light {
     /// Colour, RGB (HSV files are converted on load).
     pub rgb: [f32; 3],
-    /// Direction towards the light (any non-zero length); view space (u, v, n) when
-    /// `view` is true, else world space.
+    /// Direction towards the light (any non-zero length), in `space`.
     pub dir: [f64; 3],
-    /// Whether `dir` is in view space.
-    pub view: bool,
+    /// The frame of `dir`.
+    pub space: LightSpace,
 }
 
 /// At most this many lights light a rendering (each costs a Blinn-Phong term at every
@@ -24,7 +42,10 @@ pub const MAX_LIGHTS: usize = 256;
 
 impl Light {
     /// Checks the light: finite colour and direction, non-zero direction.
-    pub fn new(rgb: [f32; 3], dir: [f64; 3], view: bool) -> Result<Light> {
+    ///
+    /// # Errors
+    /// [`ErrorKind::Light`] for a non-finite number or a zero direction.
+    pub fn new(rgb: [f32; 3], dir: [f64; 3], space: LightSpace) -> Result<Light> {
         if rgb.iter().any(|c| !c.is_finite()) || !v3::finite(dir) {
             return Err(Error::new(
                 ErrorKind::Light,
@@ -37,12 +58,12 @@ impl Light {
                 "light direction has zero length",
             ));
         }
-        Ok(Light { rgb, dir, view })
+        Ok(Light { rgb, dir, space })
     }
 
     /// Unit world-space direction towards the light, for camera `cam`.
     pub fn world_dir(&self, cam: &Camera) -> [f64; 3] {
-        let d = if self.view {
+        let d = if self.space == LightSpace::View {
             let w = cam.u * self.dir[0] + cam.v * self.dir[1] + cam.n * self.dir[2];
             w.to_array()
         } else {

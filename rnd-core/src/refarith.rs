@@ -201,7 +201,11 @@ impl RefCamera {
             .iter()
             .map(|l| {
                 let d = f32x3(l.dir);
-                let d = if l.view { self.to_world(d, 0.0) } else { d };
+                let d = if l.space == crate::light::LightSpace::View {
+                    self.to_world(d, 0.0)
+                } else {
+                    d
+                };
                 (l.rgb, normalize(d))
             })
             .collect()

@@ -4,23 +4,26 @@
 
 use alloc::vec::Vec;
 
+use crate::affine::Affine4;
 use crate::arith::{correct_alpha, ln_transparency, Reference, F64};
 use crate::blend::Blend;
 use crate::camera::{Camera, CameraSpec};
-use crate::error::{Error, ErrorKind, Result};
+use crate::error::{Error, ErrorKind, Param, Result};
 use crate::kernel::{Kernel, KernelName, KernelTask};
 use crate::light::{Light, Phong, WorldLights};
-use crate::march::{Loop, March, Trace};
+use crate::march::March;
 use crate::probe::Probe;
 use crate::refarith::{self, RefCamera};
-use crate::simd::{Simd, SimdLevel};
+use crate::simd::Simd;
 use crate::skip::{SkipGrid, SkipKind, SkipPlan};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
+#[doc(hidden)]
 pub use crate::arith::RayGeom;
-pub use crate::march::SampleInfo;
+pub use crate::march::{Loop, SampleInfo, Trace};
+pub use crate::simd::SimdLevel;
 
 /// Most samples one ray may take ((fcv − ncv) / plane separation).
 pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
@@ -125,8 +128,8 @@ pub struct RenderSpec<'a> {
     pub(crate) simd: Simd,
 }
 
-fn rerr(msg: alloc::string::String) -> Error {
-    Error::new(ErrorKind::Render, msg)
+fn rerr(param: Param, msg: alloc::string::String) -> Error {
+    Error::about(ErrorKind::Render, param, msg)
 }
 
 impl<'a> RenderSpec<'a> {
@@ -143,40 +146,47 @@ impl<'a> RenderSpec<'a> {
     ) -> Result<Self> {
         use alloc::format;
         let camera = Camera::new(params.camera)?;
+        let num = crate::error::Num;
         let once = params.sample_once || params.plane_sep == 0.0;
         if !params.plane_sep.is_finite() || params.plane_sep < 0.0 {
-            return Err(rerr(format!(
-                "-s: plane separation {} must be >= 0",
-                crate::error::Num(params.plane_sep)
-            )));
+            return Err(rerr(
+                Param::PlaneSep,
+                format!("plane separation {} must be >= 0", num(params.plane_sep)),
+            ));
         }
         if !once {
             let per_ray = (camera.fcv - camera.ncv) / params.plane_sep;
             if !(per_ray <= MAX_SAMPLES_PER_RAY) {
-                return Err(rerr(format!(
-                    "-s: plane separation {} gives {per_ray:.3e} samples per ray (limit {MAX_SAMPLES_PER_RAY:e})",
-                    crate::error::Num(params.plane_sep)
-                )));
+                return Err(rerr(
+                    Param::PlaneSep,
+                    format!(
+                        "plane separation {} gives {per_ray:.3e} samples per ray (limit {MAX_SAMPLES_PER_RAY:e})",
+                        num(params.plane_sep)
+                    ),
+                ));
             }
         }
         if !(params.unit_step.is_finite() && params.unit_step > 0.0) {
-            return Err(rerr(format!(
-                "-us: unit step {} must be finite and > 0",
-                params.unit_step
-            )));
+            return Err(rerr(
+                Param::UnitStep,
+                format!("unit step {} must be finite and > 0", params.unit_step),
+            ));
         }
         if !(params.alpha_near1 > 0.0 && params.alpha_near1 <= 1.0) {
-            return Err(rerr(format!(
-                "-a1: alphaNear1 {} must be in (0, 1]",
-                params.alpha_near1
-            )));
+            return Err(rerr(
+                Param::AlphaNear1,
+                format!("alpha_near1 {} must be in (0, 1]", params.alpha_near1),
+            ));
         }
         let ph = params.phong;
         if ![ph.ka, ph.kd, ph.ks, ph.p].iter().all(|x| x.is_finite()) {
-            return Err(rerr(format!(
-                "-ph: need finite values (got {} {} {} {})",
-                ph.ka, ph.kd, ph.ks, ph.p
-            )));
+            return Err(rerr(
+                Param::Phong,
+                format!(
+                    "Blinn-Phong parameters must be finite (got {} {} {} {})",
+                    ph.ka, ph.kd, ph.ks, ph.p
+                ),
+            ));
         }
         if params
             .dcn
@@ -184,26 +194,36 @@ impl<'a> RenderSpec<'a> {
             .chain(params.dcf.iter())
             .any(|x| !x.is_finite())
         {
-            return Err(rerr("-dcn/-dcf: depth-cue colours must be finite".into()));
+            return Err(rerr(
+                Param::DepthCue,
+                "depth-cue colours must be finite".into(),
+            ));
         }
         if ph.p < 0.0 {
-            return Err(rerr(format!(
-                "-ph: specular exponent {} must be >= 0",
-                ph.p
-            )));
+            return Err(rerr(
+                Param::Phong,
+                format!("specular exponent {} must be >= 0", ph.p),
+            ));
         }
         if params.blend == Blend::Over && !params.probe.is_colour() {
-            return Err(rerr(format!(
-                "-b over: with over blend, must probe rgba or rgbalit (not {})",
-                params.probe
-            )));
+            return Err(rerr(
+                Param::Blend,
+                format!(
+                    "blend over needs probe rgba or rgbalit (not {})",
+                    params.probe
+                ),
+            ));
         }
         if params.probe.is_colour() && lut.is_none() {
-            return Err(rerr(format!("-p {}: needs a LUT (-lut)", params.probe)));
+            return Err(rerr(
+                Param::Lut,
+                format!("probe {} needs a LUT", params.probe),
+            ));
         }
         if lights.len() > crate::light::MAX_LIGHTS {
-            return Err(Error::new(
+            return Err(Error::about(
                 ErrorKind::Light,
+                Param::Lights,
                 format!(
                     "{} lights; at most {} are allowed",
                     lights.len(),
@@ -212,7 +232,7 @@ impl<'a> RenderSpec<'a> {
             ));
         }
         if params.probe == Probe::RgbaLit && lights.is_empty() {
-            return Err(rerr("-p rgbalit: needs lights (-lit)".into()));
+            return Err(rerr(Param::Lights, "probe rgbalit needs lights".into()));
         }
         let need_grad = params.probe == Probe::GradVec
             || params.probe == Probe::GradMag
@@ -222,31 +242,41 @@ impl<'a> RenderSpec<'a> {
         let ref_cam = RefCamera::new(&params.camera);
         let lights = if params.reference {
             if !ref_cam.is_finite() {
-                return Err(rerr(format!(
-                    "the camera (look-from {:?}, look-at {:?}) is beyond the reference's \
-                     f32 arithmetic (there: eye distance {}, near plane {}, far plane {}); \
-                     use -ref false",
-                    params.camera.fr, params.camera.at, ref_cam.d, ref_cam.ncv, ref_cam.fcv
-                )));
+                return Err(rerr(
+                    Param::Reference,
+                    format!(
+                        "the camera (look-from {:?}, look-at {:?}) is beyond the reference's \
+                         f32 arithmetic (there: eye distance {}, near plane {}, far plane {}); \
+                         use the f64 arithmetic",
+                        params.camera.fr, params.camera.at, ref_cam.d, ref_cam.ncv, ref_cam.fcv
+                    ),
+                ));
             }
             let f32_ok = |x: f64| (x as f32).is_finite() && (x == 0.0 || x as f32 > 0.0);
             if !f32_ok(params.unit_step) || !f32_ok(params.plane_sep) {
-                return Err(rerr(format!(
-                    "-us {:?} / -s {:?} are beyond the reference's f32 arithmetic; use -ref false",
-                    params.unit_step, params.plane_sep
-                )));
+                return Err(rerr(
+                    Param::Reference,
+                    format!(
+                        "unit step {:?} / plane separation {:?} are beyond the reference's f32 \
+                         arithmetic; use the f64 arithmetic",
+                        params.unit_step, params.plane_sep
+                    ),
+                ));
             }
             let rl = ref_cam.lights(lights);
             if let Some(i) = rl
                 .iter()
                 .position(|(c, d)| !c.iter().chain(d.iter()).all(|x| x.is_finite()))
             {
-                return Err(rerr(format!(
-                    "light {} (direction {:?}) is beyond the reference's f32 arithmetic; \
-                     use -ref false",
-                    i + 1,
-                    lights[i].dir
-                )));
+                return Err(rerr(
+                    Param::Reference,
+                    format!(
+                        "light {} (direction {:?}) is beyond the reference's f32 arithmetic; \
+                         use the f64 arithmetic",
+                        i + 1,
+                        lights[i].dir
+                    ),
+                ));
             }
             rl
         } else {
@@ -257,6 +287,12 @@ impl<'a> RenderSpec<'a> {
             .min(MAX_SAMPLES_PER_RAY) as u32
             + 1;
         let simd = Simd::at_most(params.simd);
+        let [w, h] = camera.spec.size;
+        (w as usize)
+            .checked_mul(h as usize)
+            .and_then(|n| n.checked_mul(channels))
+            .and_then(|n| n.checked_mul(4))
+            .ok_or_else(|| too_large(w, h))?;
         let mut spec = RenderSpec {
             params,
             camera,
@@ -326,6 +362,7 @@ impl<'a> RenderSpec<'a> {
     }
 
     /// The vector level in use.
+    #[doc(hidden)]
     pub fn simd(&self) -> Simd {
         self.simd
     }
@@ -349,11 +386,15 @@ impl<'a> RenderSpec<'a> {
             self.params.reference,
             sizes.iter().find(|&&n| n > refarith::MAX_AXIS),
         ) {
-            return Err(rerr(alloc::format!(
-                "an axis of {n} samples is beyond exact f32 index arithmetic (at most {}); \
-                 render with -ref false",
-                refarith::MAX_AXIS
-            )));
+            return Err(Error::about(
+                ErrorKind::Volume,
+                Param::Volume,
+                alloc::format!(
+                    "an axis of {n} samples is beyond the reference's exact f32 index \
+                     arithmetic (at most {}); use the f64 arithmetic",
+                    refarith::MAX_AXIS
+                ),
+            ));
         }
         Ok(())
     }
@@ -361,6 +402,7 @@ impl<'a> RenderSpec<'a> {
     /// What a skip grid records for this render, when one applies (`params.skip_empty`
     /// and an `over` render of a colour probe with a LUT, or a `max` render of the
     /// value or the gradient magnitude).
+    #[doc(hidden)]
     pub fn skip_kind(&self) -> Option<SkipKind> {
         let p = &self.params;
         match (p.skip_empty, p.blend, p.probe) {
@@ -373,12 +415,14 @@ impl<'a> RenderSpec<'a> {
     }
 
     /// The skip grid for `vol`, when one applies (see [`RenderSpec::skip_kind`]).
+    #[doc(hidden)]
     pub fn skip_grid<V: Voxel>(&self, vol: &Volume<'_, V>, kernel: KernelName) -> Option<SkipGrid> {
         self.skip_plan(vol, kernel).map(|plan| plan.build(vol))
     }
 
     /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
     /// several threads; the same grid).
+    #[doc(hidden)]
     pub fn skip_plan<V: Voxel>(
         &self,
         vol: &Volume<'_, V>,
@@ -406,6 +450,7 @@ impl<'a> RenderSpec<'a> {
 
     /// Geometry of the ray through pixel (hi, vi) in f64 (the `-db` header; the
     /// reference arithmetic rounds the same quantities to f32).
+    #[doc(hidden)]
     pub fn ray_geom(&self, hi: u32, vi: u32) -> RayGeom {
         RayGeom::new(
             &self.camera,
@@ -541,6 +586,29 @@ pub enum AnyVolume<'a> {
     I16(Volume<'a, i16>),
 }
 
+impl<'a> From<Volume<'a, f32>> for AnyVolume<'a> {
+    fn from(v: Volume<'a, f32>) -> Self {
+        AnyVolume::F32(v)
+    }
+}
+
+impl<'a> From<Volume<'a, i16>> for AnyVolume<'a> {
+    fn from(v: Volume<'a, i16>) -> Self {
+        AnyVolume::I16(v)
+    }
+}
+
+/// The reconstruction at one point: see [`AnyVolume::probe`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Probed {
+    /// The point's index-space position.
+    pub index: [f64; 3],
+    /// Reconstructed value.
+    pub value: f32,
+    /// Gradient in world space (per world unit).
+    pub gradient: [f32; 3],
+}
+
 impl AnyVolume<'_> {
     /// Samples per axis.
     pub fn sizes(&self) -> [usize; 3] {
@@ -548,6 +616,66 @@ impl AnyVolume<'_> {
             AnyVolume::F32(v) => v.sizes(),
             AnyVolume::I16(v) => v.sizes(),
         }
+    }
+
+    /// Index-to-world.
+    pub fn itow(&self) -> &Affine4 {
+        match self {
+            AnyVolume::F32(v) => v.itow(),
+            AnyVolume::I16(v) => v.itow(),
+        }
+    }
+
+    /// The world positions of the eight corner samples (see
+    /// [`crate::camera::CameraSpec::framing`]).
+    pub fn world_corners(&self) -> [[f64; 3]; 8] {
+        crate::volume::corners(self.itow(), self.sizes())
+    }
+
+    /// Reconstructs the value and world-space gradient at world point `world` with
+    /// `kernel`, in f64 geometry with f32 sums (the arithmetic of `rendr ceval`).
+    ///
+    /// The inside rule: the point is mapped to index space; it is inside when, on every
+    /// axis, the kernel's whole support around it lies on samples of the volume (so a
+    /// support-4 kernel needs one sample of margin before the point and two after; the
+    /// box kernel only the nearest sample). `None` outside, or at a non-finite point.
+    ///
+    /// ```
+    /// use rnd_core::affine::Affine4;
+    /// use rnd_core::kernel::KernelName;
+    /// use rnd_core::render::AnyVolume;
+    /// use rnd_core::volume::OwnedVolume;
+    ///
+    /// // f = 2x + 3y - z on a unit grid: the tent kernel reproduces it exactly.
+    /// let vol = OwnedVolume::from_fn([8, 8, 8], Affine4::IDENTITY, |[i, j, k]| {
+    ///     (2 * i as i32 + 3 * j as i32 - k as i32) as i16
+    /// })
+    /// .unwrap();
+    /// let p = AnyVolume::from(vol.view()).probe(KernelName::Tent, [2.5, 3.25, 4.0]).unwrap();
+    /// assert_eq!(p.value, 2.0 * 2.5 + 3.0 * 3.25 - 4.0);
+    /// assert_eq!(p.gradient, [2.0, 3.0, -1.0]);
+    /// assert!(AnyVolume::from(vol.view()).probe(KernelName::Tent, [7.5, 0.0, 0.0]).is_none());
+    /// ```
+    pub fn probe(&self, kernel: KernelName, world: [f64; 3]) -> Option<Probed> {
+        struct At([f64; 3]);
+        impl ConvoTask for At {
+            type Output = crate::convo::ConvoSample;
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(
+                self,
+                vol: Volume<'_, V>,
+            ) -> crate::convo::ConvoSample {
+                crate::convo::Convo::<V, K, S>::new(vol).eval_world(self.0, true)
+            }
+        }
+        if !world.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let s = dispatch(*self, kernel, At(world));
+        s.inside.then_some(Probed {
+            index: s.pos_i,
+            value: s.value,
+            gradient: s.grad_w,
+        })
     }
 }
 
@@ -574,6 +702,15 @@ pub fn dispatch<T: ConvoTask>(vol: AnyVolume<'_>, kernel: KernelName, task: T) -
     kernel.with(WithKernel(vol, task))
 }
 
+/// The error for an image whose size in bytes does not fit in `usize`.
+fn too_large(w: u32, h: u32) -> Error {
+    Error::about(
+        ErrorKind::Memory,
+        Param::ImageSize,
+        alloc::format!("a {w} x {h} image is too large to address"),
+    )
+}
+
 /// Renders the whole image on the calling thread into a new buffer (W·H·channels floats,
 /// row-major from the top).
 ///
@@ -593,13 +730,12 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
     }
     spec.check_volume(vol.sizes())?;
     let [w, h] = spec.size();
-    let len = spec
-        .image_len()
-        .ok_or_else(|| rerr(alloc::format!("a {w} x {h} image is too large to address")))?;
+    let len = spec.image_len().ok_or_else(|| too_large(w, h))?;
     let mut out = Vec::new();
     out.try_reserve_exact(len).map_err(|_| {
-        Error::new(
+        Error::about(
             ErrorKind::Memory,
+            Param::ImageSize,
             alloc::format!("no memory for a {w} x {h} image ({len} floats)"),
         )
     })?;

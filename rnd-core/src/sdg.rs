@@ -3,7 +3,7 @@
 use alloc::vec::Vec;
 
 use crate::affine::Affine4;
-use crate::error::{Error, ErrorKind, Result};
+use crate::error::{Error, ErrorKind, Param, Result};
 use crate::math;
 
 /// Names of the `-w` functions, in order (index = `-w` number).
@@ -46,7 +46,11 @@ impl Grid {
     /// Index-to-world: M = R·Sh·D, origin = c − M·((sz−1)/2).
     pub fn itow(&self) -> Result<Affine4> {
         if self.sizes.contains(&0) {
-            return Err(Error::new(ErrorKind::Sdg, "-sz: sizes must be > 0"));
+            return Err(Error::about(
+                ErrorKind::Sdg,
+                Param::SdgSizes,
+                "sizes must be > 0",
+            ));
         }
         let all = self
             .lengths
@@ -57,11 +61,15 @@ impl Grid {
         if all.clone().any(|x| !x.is_finite()) {
             return Err(Error::new(
                 ErrorKind::Sdg,
-                "-l/-sh/-r/-c: need finite numbers",
+                "edge lengths, shear, rotation and centre must be finite",
             ));
         }
         if self.lengths.iter().any(|&l| l <= 0.0) {
-            return Err(Error::new(ErrorKind::Sdg, "-l: edge lengths must be > 0"));
+            return Err(Error::about(
+                ErrorKind::Sdg,
+                Param::SdgLengths,
+                "edge lengths must be > 0",
+            ));
         }
         let sp: [f64; 3] = core::array::from_fn(|i| self.lengths[i] / self.sizes[i] as f64);
         let [xy, xz, yz] = self.shear;
@@ -167,9 +175,10 @@ pub fn eval(which: u32, p: [f64; 3], idx: [usize; 3], sizes: [usize; 3]) -> f64 
 /// Samples function `which` on `grid`, returning the values (fast axis first) and ItoW.
 pub fn generate(which: u32, grid: &Grid) -> Result<(Vec<f64>, Affine4)> {
     if which as usize >= FUNCTIONS.len() {
-        return Err(Error::new(
+        return Err(Error::about(
             ErrorKind::Sdg,
-            alloc::format!("-w: unknown function {which} (0..{})", FUNCTIONS.len() - 1),
+            Param::SdgFunction,
+            alloc::format!("unknown function {which} (0..{})", FUNCTIONS.len() - 1),
         ));
     }
     let itow = grid.itow()?;
@@ -177,12 +186,13 @@ pub fn generate(which: u32, grid: &Grid) -> Result<(Vec<f64>, Affine4)> {
     let n = s0
         .checked_mul(s1)
         .and_then(|v| v.checked_mul(s2))
-        .ok_or_else(|| Error::new(ErrorKind::Sdg, "-sz: too many samples"))?;
+        .ok_or_else(|| Error::about(ErrorKind::Sdg, Param::SdgSizes, "too many samples"))?;
     let mut out = Vec::new();
     out.try_reserve_exact(n).map_err(|_| {
-        Error::new(
-            ErrorKind::Sdg,
-            alloc::format!("-sz: {n} samples do not fit in memory"),
+        Error::about(
+            ErrorKind::Memory,
+            Param::SdgSizes,
+            alloc::format!("{n} samples do not fit in memory"),
         )
     })?;
     for k in 0..s2 {

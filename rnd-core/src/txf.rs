@@ -5,7 +5,7 @@ use alloc::vec::Vec;
 use core::fmt;
 use core::str::FromStr;
 
-use crate::error::{Error, ErrorKind, Result};
+use crate::error::{Error, ErrorKind, Param, Result};
 use crate::math;
 
 /// The space of a control-point file (`#space:=...` or `#range:=...`).
@@ -91,8 +91,13 @@ pub struct Txf {
 }
 
 impl Txf {
-    /// Builds from rows `x c0 [c1 c2]`. Positions must be finite and strictly increasing,
+    /// Builds from rows `x c0 [c1 c2]` whose width is checked here (the form of a
+    /// control-point file; [`Txf::rgb`], [`Txf::hsv`] and [`Txf::alpha`] take rows of
+    /// the right width by type). Positions must be finite and strictly increasing,
     /// values finite; at least one row.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] naming the first bad row.
     pub fn new(space: TxfSpace, rows: &[&[f64]]) -> Result<Txf> {
         let nc = space.channels() + 1;
         if rows.is_empty() {
@@ -147,6 +152,51 @@ impl Txf {
             ));
         }
         Ok(Txf { space, xs, vals })
+    }
+
+    /// A colour transfer function from RGB control points `[position, r, g, b]`.
+    ///
+    /// ```
+    /// use rnd_core::txf::Txf;
+    ///
+    /// let ramp = Txf::rgb(&[[0.0, 0.0, 0.0, 1.0], [1.0, 1.0, 0.5, 0.0]]).unwrap();
+    /// assert_eq!(ramp.eval(0.5), [0.5, 0.25, 0.5]);
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Txf::new`].
+    pub fn rgb(points: &[[f64; 4]]) -> Result<Txf> {
+        Self::from_points(TxfSpace::Rgb, points)
+    }
+
+    /// A colour transfer function from HSV control points `[position, h, s, v]` (hue in
+    /// [0, 1), interpolated the short way round; evaluated to RGB).
+    ///
+    /// # Errors
+    /// As [`Txf::new`].
+    pub fn hsv(points: &[[f64; 4]]) -> Result<Txf> {
+        Self::from_points(TxfSpace::Hsv, points)
+    }
+
+    /// An opacity transfer function from control points `[position, alpha]`.
+    ///
+    /// ```
+    /// use rnd_core::txf::Txf;
+    ///
+    /// let a = Txf::alpha(&[[0.0, 0.0], [100.0, 0.0], [200.0, 0.8]]).unwrap();
+    /// assert_eq!(a.eval(150.0)[0], 0.4);
+    /// assert!(Txf::alpha(&[[1.0, 0.0], [0.0, 1.0]]).is_err()); // not increasing
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Txf::new`].
+    pub fn alpha(points: &[[f64; 2]]) -> Result<Txf> {
+        Self::from_points(TxfSpace::Alpha, points)
+    }
+
+    fn from_points<const N: usize>(space: TxfSpace, points: &[[f64; N]]) -> Result<Txf> {
+        let rows: Vec<&[f64]> = points.iter().map(|p| &p[..]).collect();
+        Txf::new(space, &rows)
     }
 
     /// The space.
@@ -206,6 +256,56 @@ impl Txf {
     }
 }
 
+/// How a [`Lut`] is made from transfer functions: see [`Lut::builder`].
+#[derive(Debug, Clone, Copy)]
+pub struct LutBuilder<'t> {
+    domain: (f64, f64),
+    entries: usize,
+    colour: Option<(&'t Txf, bool)>,
+    opacity: Option<(&'t Txf, bool)>,
+}
+
+impl<'t> LutBuilder<'t> {
+    /// Colour from an RGB or HSV txf, evaluated at the values themselves.
+    pub fn colour(mut self, txf: &'t Txf) -> Self {
+        self.colour = Some((txf, false));
+        self
+    }
+    /// Colour from an RGB or HSV txf whose own domain (first to last control point) is
+    /// stretched onto the LUT's.
+    pub fn colour_stretched(mut self, txf: &'t Txf) -> Self {
+        self.colour = Some((txf, true));
+        self
+    }
+    /// Opacity from an alpha txf, evaluated at the values themselves.
+    pub fn opacity(mut self, txf: &'t Txf) -> Self {
+        self.opacity = Some((txf, false));
+        self
+    }
+    /// Opacity from an alpha txf whose own domain is stretched onto the LUT's.
+    pub fn opacity_stretched(mut self, txf: &'t Txf) -> Self {
+        self.opacity = Some((txf, true));
+        self
+    }
+    /// The number of entries (cells of equal width over the domain).
+    pub fn entries(mut self, n: usize) -> Self {
+        self.entries = n;
+        self
+    }
+    /// Makes the LUT (white where no colour txf is given, opaque where no opacity txf
+    /// is).
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] for a domain that is not finite min < max, no entries, or a
+    /// txf of the wrong space; [`ErrorKind::Memory`] when the entries cannot be
+    /// allocated.
+    pub fn build(self) -> Result<Lut> {
+        let (c, cs) = self.colour.map_or((None, false), |(t, s)| (Some(t), s));
+        let (a, as_) = self.opacity.map_or((None, false), |(t, s)| (Some(t), s));
+        Lut::generate(c, a, cs, as_, self.entries, self.domain.0, self.domain.1)
+    }
+}
+
 /// A 1-D RGBA lookup table over [vmin, vmax] with cell-centred entries (SPEC §3.4, §8.3).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lut {
@@ -239,9 +339,41 @@ impl Lut {
         Ok(Lut { vmin, vmax, rgba })
     }
 
-    /// Generates a LUT of `len` entries over [vmin, vmax] (SPEC §8.3). `ctxf` must be in
-    /// rgb/hsv, `atxf` in alpha; a missing txf gives 1. `crs`/`ars` rescale each txf's own
-    /// domain onto the LUT domain (an error without that txf).
+    /// A builder of a LUT over the value domain [`vmin`, `vmax`] from colour and opacity
+    /// transfer functions (256 entries unless told).
+    ///
+    /// ```
+    /// use rnd_core::txf::{Lut, Txf};
+    ///
+    /// let colour = Txf::rgb(&[[0.0, 1.0, 0.9, 0.8], [1.0, 1.0, 1.0, 1.0]]).unwrap();
+    /// let opacity = Txf::alpha(&[[0.0, 0.0], [1.0, 1.0]]).unwrap();
+    /// let lut = Lut::builder(0.0, 500.0)
+    ///     .colour_stretched(&colour) // [0, 1] of the colour txf spans [0, 500]
+    ///     .opacity_stretched(&opacity)
+    ///     .entries(100)
+    ///     .build()
+    ///     .unwrap();
+    /// assert_eq!(lut.entries().len(), 100);
+    /// assert_eq!(lut.lookup(0.0)[3], 0.005); // the first entry's centre: 0.5 / 100
+    /// ```
+    pub fn builder<'t>(vmin: f64, vmax: f64) -> LutBuilder<'t> {
+        LutBuilder {
+            domain: (vmin, vmax),
+            entries: 256,
+            colour: None,
+            opacity: None,
+        }
+    }
+
+    /// Generates a LUT of `len` entries over [vmin, vmax]: entry i samples the
+    /// transfer functions at the centre of its cell, vmin + (i + ½)(vmax − vmin)/len.
+    /// `ctxf` must be in rgb/hsv, `atxf` in alpha; a missing txf gives 1. `crs`/`ars`
+    /// stretch each txf's own domain onto the LUT domain (an error without that txf).
+    /// [`Lut::builder`] is the same with names instead of positions.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] for a bad domain, length or txf space.
+    #[doc(hidden)]
     pub fn generate(
         ctxf: Option<&Txf>,
         atxf: Option<&Txf>,
@@ -255,17 +387,17 @@ impl Lut {
             return Err(Error::new(ErrorKind::Txf, "LUT length must be > 0"));
         }
         if !(vmin.is_finite() && vmax.is_finite() && vmin < vmax) {
-            return Err(Error::new(
+            return Err(Error::about(
                 ErrorKind::Txf,
-                alloc::format!("-mm: need finite min < max (got {vmin} {vmax})"),
+                Param::LutDomain,
+                alloc::format!("LUT domain needs finite min < max (got {vmin} {vmax})"),
             ));
         }
         if !(vmax - vmin).is_finite() {
-            return Err(Error::new(
+            return Err(Error::about(
                 ErrorKind::Txf,
-                alloc::format!(
-                    "-mm: LUT domain [{vmin:e}, {vmax:e}] is wider than a double can hold"
-                ),
+                Param::LutDomain,
+                alloc::format!("LUT domain [{vmin:e}, {vmax:e}] is wider than a double can hold"),
             ));
         }
         if let Some(c) = ctxf {
@@ -302,7 +434,7 @@ impl Lut {
         let (a0, a1) = range(atxf, ars);
         let mut rgba = Vec::new();
         rgba.try_reserve_exact(len)
-            .map_err(|_| Error::new(ErrorKind::Txf, "LUT length too large to allocate"))?;
+            .map_err(|_| Error::new(ErrorKind::Memory, "LUT length too large to allocate"))?;
         for i in 0..len {
             let a = (i as f64 + 0.5) / len as f64;
             let rgb = match ctxf {

@@ -1,11 +1,28 @@
-//! A scalar volume over borrowed samples, with its index-to-world geometry.
+//! Scalar volumes with their index-to-world geometry: [`Volume`] borrows its samples,
+//! [`OwnedVolume`] holds them.
+
+use alloc::vec::Vec;
 
 use crate::affine::Affine4;
 use crate::error::{Error, ErrorKind, Result};
 use crate::voxel::Voxel;
 
 /// A 3-D scalar volume: samples stored fast-to-slow (`i + s0*(j + s1*k)`), borrowed from
-/// the caller, plus the index-to-world transform (SPEC §3.1).
+/// the caller, plus the index-to-world transform: sample (i, j, k) sits at world point
+/// `itow · (i, j, k, 1)` (the sample is at the centre of its cell; index positions run
+/// from 0 to size − 1 along each axis).
+///
+/// ```
+/// use rnd_core::affine::Affine4;
+/// use rnd_core::volume::Volume;
+///
+/// let data = [0i16, 1, 2, 3, 4, 5, 6, 7];
+/// let vol = Volume::new(&data, [2, 2, 2], Affine4::from_spacing([0.5, 0.5, 2.0], [0.0; 3]))
+///     .unwrap();
+/// assert_eq!(vol.at(1, 1, 1), 7);
+/// assert_eq!(vol.itow().point([1.0, 1.0, 1.0]), [0.5, 0.5, 2.0]);
+/// assert!(Volume::new(&data[..7], [2, 2, 2], Affine4::IDENTITY).is_err());
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Volume<'a, V: Voxel> {
     data: &'a [V],
@@ -16,8 +33,10 @@ pub struct Volume<'a, V: Voxel> {
 
 impl<'a, V: Voxel> Volume<'a, V> {
     /// Wraps `data` with sizes (fast axis first) and index-to-world matrix `itow`.
-    /// Fails when a size is 0, the data length does not match, or `itow` is not an
-    /// invertible affine matrix.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Volume`] when a size is 0, the data length does not match, or `itow`
+    /// is not an invertible affine matrix.
     pub fn new(data: &'a [V], sizes: [usize; 3], itow: Affine4) -> Result<Self> {
         if sizes.contains(&0) {
             return Err(Error::new(
@@ -81,11 +100,20 @@ impl<'a, V: Voxel> Volume<'a, V> {
     pub fn wtoi(&self) -> &Affine4 {
         &self.wtoi
     }
-    /// Sample at integer index (i, j, k); panics when out of range.
+    /// Sample at integer index (i, j, k).
+    ///
+    /// # Panics
+    /// When (i, j, k) is outside the volume.
     #[inline(always)]
     pub fn at(&self, i: usize, j: usize, k: usize) -> V {
         self.data[i + self.sizes[0] * (j + self.sizes[1] * k)]
     }
+    /// The world positions of the eight corner samples (index 0 or size − 1 on each
+    /// axis), e.g. for [`crate::camera::CameraSpec::framing`].
+    pub fn world_corners(&self) -> [[f64; 3]; 8] {
+        corners(&self.itow, self.sizes)
+    }
+
     /// Minimum and maximum sample value (as f32).
     pub fn min_max(&self) -> (f32, f32) {
         let mut lo = f32::INFINITY;
@@ -100,5 +128,126 @@ impl<'a, V: Voxel> Volume<'a, V> {
             }
         }
         (lo, hi)
+    }
+}
+
+/// World positions of the corner samples of a grid of `sizes` under `itow`.
+pub(crate) fn corners(itow: &Affine4, sizes: [usize; 3]) -> [[f64; 3]; 8] {
+    core::array::from_fn(|c| {
+        let p: [f64; 3] = core::array::from_fn(|a| {
+            if c >> a & 1 == 1 {
+                (sizes[a] - 1) as f64
+            } else {
+                0.0
+            }
+        });
+        itow.point(p)
+    })
+}
+
+/// A 3-D scalar volume that owns its samples (see [`Volume`] for the layout and the
+/// geometry). Built checked, so [`OwnedVolume::view`] cannot fail.
+///
+/// ```
+/// use rnd_core::affine::Affine4;
+/// use rnd_core::volume::OwnedVolume;
+///
+/// // A 32^3 ball of radius 12 voxels, 0.5 mm spacing, centred on the world origin.
+/// let geom = Affine4::from_spacing([0.5; 3], [-7.75; 3]);
+/// let vol = OwnedVolume::from_fn([32, 32, 32], geom, |[i, j, k]| {
+///     let r2 = [i, j, k].iter().map(|&x| (x as f32 - 15.5).powi(2)).sum::<f32>();
+///     if r2 < 144.0 { 1.0f32 } else { 0.0 }
+/// })
+/// .unwrap();
+/// assert_eq!(vol.view().at(16, 16, 16), 1.0);
+/// assert_eq!(vol.view().at(0, 0, 0), 0.0);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct OwnedVolume<V: Voxel> {
+    data: Vec<V>,
+    sizes: [usize; 3],
+    itow: Affine4,
+    wtoi: Affine4,
+}
+
+impl<V: Voxel> OwnedVolume<V> {
+    /// Takes `data` (fast axis first) with its sizes and index-to-world matrix.
+    ///
+    /// # Errors
+    /// As [`Volume::new`].
+    pub fn from_vec(data: Vec<V>, sizes: [usize; 3], itow: Affine4) -> Result<Self> {
+        let wtoi = Volume::new(&data, sizes, itow)?.wtoi;
+        Ok(OwnedVolume {
+            data,
+            sizes,
+            itow,
+            wtoi,
+        })
+    }
+
+    /// Fills a volume of `sizes` with `f([i, j, k])` for every sample, i fastest.
+    ///
+    /// # Errors
+    /// As [`Volume::new`]; [`ErrorKind::Memory`] when the samples cannot be allocated.
+    pub fn from_fn(
+        sizes: [usize; 3],
+        itow: Affine4,
+        mut f: impl FnMut([usize; 3]) -> V,
+    ) -> Result<Self> {
+        let n = sizes[0]
+            .checked_mul(sizes[1])
+            .and_then(|x| x.checked_mul(sizes[2]))
+            .filter(|n| n.checked_mul(core::mem::size_of::<V>()).is_some())
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::Memory,
+                    alloc::format!("a volume of sizes {sizes:?} is too large to address"),
+                )
+            })?;
+        let mut data = Vec::new();
+        data.try_reserve_exact(n).map_err(|_| {
+            Error::new(
+                ErrorKind::Memory,
+                alloc::format!("no memory for a volume of sizes {sizes:?}"),
+            )
+        })?;
+        for k in 0..sizes[2] {
+            for j in 0..sizes[1] {
+                for i in 0..sizes[0] {
+                    data.push(f([i, j, k]));
+                }
+            }
+        }
+        Self::from_vec(data, sizes, itow)
+    }
+
+    /// The borrowed view, for rendering and probing.
+    pub fn view(&self) -> Volume<'_, V> {
+        Volume {
+            data: &self.data,
+            sizes: self.sizes,
+            itow: self.itow,
+            wtoi: self.wtoi,
+        }
+    }
+
+    /// The samples, fast axis first.
+    pub fn data(&self) -> &[V] {
+        &self.data
+    }
+
+    /// Sizes, fast axis first.
+    pub fn sizes(&self) -> [usize; 3] {
+        self.sizes
+    }
+
+    /// Index-to-world.
+    pub fn itow(&self) -> &Affine4 {
+        &self.itow
+    }
+
+    /// The samples, giving up the volume.
+    pub fn into_vec(self) -> Vec<V> {
+        self.data
     }
 }

@@ -3,11 +3,39 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// An error from `rnd-std`, carrying the file (when there is one) and what is wrong.
+/// What went wrong, broadly; the message says exactly what.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// Reading or writing failed (the system's error is in the message and in
+    /// [`Error::source`]).
+    Io,
+    /// A file's content is not what it claims or what rendr reads (a bad header,
+    /// truncated data, an unsupported variant).
+    Format,
+    /// More memory than this process may use, or than the system gives.
+    Memory,
+    /// The output cannot be written safely (it is an input, its folder is missing, ...).
+    Output,
+    /// An error of the core library, with its kind (a bad parameter, volume, transfer
+    /// function, ...).
+    Core(rnd_core::ErrorKind),
+    /// The caller stopped the work (a cancelled render).
+    Cancelled,
+}
+
+/// An error from `rnd-std`: its kind, the file (when there is one), the parameter (when
+/// the core library named one) and what is wrong.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct Error {
+    /// Broad category.
+    pub kind: ErrorKind,
     /// The file concerned, if any.
     pub path: Option<PathBuf>,
+    /// The parameter concerned, when the core library named one (a front end puts its
+    /// own name for it before the message).
+    pub param: Option<rnd_core::Param>,
     /// What went wrong.
     pub msg: String,
     /// The underlying IO error, if any (its text is part of `msg` already).
@@ -15,29 +43,38 @@ pub struct Error {
 }
 
 impl Error {
-    /// A message without a file.
+    /// A message without a file, of kind [`ErrorKind::Format`] (change it with
+    /// [`Error::with_kind`]).
     pub fn msg(msg: impl Into<String>) -> Self {
         Error {
+            kind: ErrorKind::Format,
             path: None,
+            param: None,
             msg: msg.into(),
             source: None,
         }
     }
-    /// A message about `path`.
+    /// A message about `path`, of kind [`ErrorKind::Format`].
     pub fn at(path: &Path, msg: impl Into<String>) -> Self {
         Error {
             path: Some(path.to_path_buf()),
-            msg: msg.into(),
-            source: None,
+            ..Error::msg(msg)
         }
     }
-    /// An IO error while doing `what` with `path`.
+    /// An IO error while doing `what` with `path` ([`ErrorKind::Io`]).
     pub fn io(path: &Path, what: &str, e: std::io::Error) -> Self {
         Error {
+            kind: ErrorKind::Io,
             path: Some(path.to_path_buf()),
+            param: None,
             msg: format!("{what}: {e}"),
             source: Some(e),
         }
+    }
+    /// The same error with kind `kind`.
+    pub fn with_kind(mut self, kind: ErrorKind) -> Self {
+        self.kind = kind;
+        self
     }
     /// Sets the path if none is set.
     pub fn with_path(mut self, path: &Path) -> Self {
@@ -88,9 +125,20 @@ impl fmt::Display for Error {
 /// [`source`]: std::error::Error::source
 impl std::error::Error for Error {}
 
+/// Keeps the core error's kind (as [`ErrorKind::Core`], or [`ErrorKind::Memory`] and
+/// [`ErrorKind::Cancelled`] as themselves) and parameter.
 impl From<rnd_core::Error> for Error {
     fn from(e: rnd_core::Error) -> Self {
-        Error::msg(e.msg)
+        let kind = match e.kind {
+            rnd_core::ErrorKind::Memory => ErrorKind::Memory,
+            rnd_core::ErrorKind::Cancelled => ErrorKind::Cancelled,
+            k => ErrorKind::Core(k),
+        };
+        Error {
+            kind,
+            param: e.param,
+            ..Error::msg(e.msg)
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use rnd_core::light::Light;
+use rnd_core::light::{Light, LightSpace};
 use rnd_core::txf::{hsv_to_rgb, Levoy, Lut, Txf, TxfSpace};
 
 use crate::nrrd::{self, Centering, Nrrd};
@@ -33,7 +33,7 @@ fn space_of(path: &Path, n: &Nrrd) -> Result<Option<TxfSpace>> {
         Some(s) => s
             .parse::<TxfSpace>()
             .map(Some)
-            .map_err(|e| Error::at(path, e.msg)),
+            .map_err(|e| Error::from(e).with_path(path)),
     }
 }
 
@@ -65,7 +65,7 @@ pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
     }
     let rs = rows(&n, c);
     let refs: Vec<&[f64]> = rs.iter().map(Vec::as_slice).collect();
-    Txf::new(space, &refs).map_err(|e| Error::at(path, e.msg))
+    Txf::new(space, &refs).map_err(|e| Error::from(e).with_path(path))
 }
 
 /// Loads a LUT (SPEC §3.4): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
@@ -116,7 +116,7 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])
         .collect();
-    Lut::new(lo, hi, rgba).map_err(|e| Error::at(path, e.msg))
+    Lut::new(lo, hi, rgba).map_err(|e| Error::from(e).with_path(path))
 }
 
 /// Loads Levoy iso-contours (SPEC §3.5): 3 columns `v r a` per line.
@@ -137,7 +137,7 @@ pub fn levoy_from_nrrd(path: &Path, n: Nrrd) -> Result<Levoy> {
         .into_iter()
         .map(|r| [r[0] as f32, r[1] as f32, r[2] as f32])
         .collect();
-    Levoy::new(items).map_err(|e| Error::at(path, e.msg))
+    Levoy::new(items).map_err(|e| Error::from(e).with_path(path))
 }
 
 /// Loads lights (SPEC §3.6): `#space:=rgb|hsv` (rgb when absent), 7 columns
@@ -185,9 +185,17 @@ pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
             Light::new(
                 [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32],
                 [r[3], r[4], r[5]],
-                r[6] != 0.0,
+                if r[6] != 0.0 {
+                    LightSpace::View
+                } else {
+                    LightSpace::World
+                },
             )
-            .map_err(|e| Error::at(path, format!("light {i}: {}", e.msg)))
+            .map_err(|e| {
+                let mut e = Error::from(e).with_path(path);
+                e.msg = format!("light {i}: {}", e.msg);
+                e
+            })
         })
         .collect()
 }

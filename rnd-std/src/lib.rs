@@ -16,7 +16,7 @@ pub mod output;
 pub mod parallel;
 pub mod volume_io;
 
-pub use error::{Error, Result};
+pub use error::{Error, ErrorKind, Result};
 
 /// Total physical memory in bytes (Linux `/proc/meminfo`), if known.
 pub fn mem_total() -> Option<u64> {
@@ -107,7 +107,8 @@ pub fn check_memory(bytes: u64, what: &str) -> Result<()> {
                 "{what} would need {} of memory; this process may use at most {}",
                 human_bytes(bytes),
                 human_bytes(lim)
-            )));
+            ))
+            .with_kind(ErrorKind::Memory));
         }
     }
     Ok(())
@@ -125,6 +126,7 @@ pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<(
             "the system refused {} of memory for {what}",
             human_bytes(bytes)
         ))
+        .with_kind(ErrorKind::Memory)
     })
 }
 

@@ -27,7 +27,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 
-use crate::{Error, Result};
+use crate::{Error, ErrorKind, Result};
 
 static TEMP_FILES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
@@ -131,10 +131,10 @@ impl Output {
             });
         }
         if path.as_os_str().is_empty() {
-            return Err(Error::msg("output file name is empty"));
+            return Err(out_msg("output file name is empty"));
         }
         if path.file_name().is_none() || path.to_string_lossy().ends_with('/') {
-            return Err(Error::at(path, "output name is a directory, not a file"));
+            return Err(out_at(path, "output name is a directory, not a file"));
         }
         for i in inputs {
             if same_file(path, i.as_ref()) {
@@ -144,7 +144,7 @@ impl Output {
                 } else {
                     format!("output is the same file as input {}", i.display())
                 };
-                return Err(Error::at(
+                return Err(out_at(
                     path,
                     format!("{what}; writing would overwrite the input"),
                 ));
@@ -153,7 +153,7 @@ impl Output {
         let mut perms = None;
         match std::fs::metadata(path) {
             Ok(m) if m.is_dir() => {
-                return Err(Error::at(path, "output is a directory"));
+                return Err(out_at(path, "output is a directory"));
             }
             Ok(m) if m.is_file() => {
                 // A link to a regular file is replaced by the new file, not followed.
@@ -168,13 +168,13 @@ impl Output {
         match std::fs::metadata(&dir) {
             Ok(m) if m.is_dir() => {}
             Ok(_) => {
-                return Err(Error::at(
+                return Err(out_at(
                     path,
                     format!("can't create output: {} is not a directory", dir.display()),
                 ))
             }
             Err(e) => {
-                return Err(Error::at(
+                return Err(out_at(
                     path,
                     format!(
                         "can't create output: directory {} {}",
@@ -208,14 +208,14 @@ impl Output {
         } else if t.is_fifo() {
             Target::Fifo
         } else if t.is_block_device() {
-            return Err(Error::at(
+            return Err(out_at(
                 path,
                 "output is a block device; refusing to write an image over a disk",
             ));
         } else if t.is_socket() {
-            return Err(Error::at(path, "output is a socket"));
+            return Err(out_at(path, "output is a socket"));
         } else {
-            return Err(Error::at(path, "output is not a regular file"));
+            return Err(out_at(path, "output is not a regular file"));
         };
         Ok(Output {
             path: path.to_path_buf(),
@@ -225,7 +225,7 @@ impl Output {
 
     #[cfg(not(unix))]
     fn special(path: &Path, _m: &std::fs::Metadata) -> Result<Output> {
-        Err(Error::at(path, "output is not a regular file"))
+        Err(out_at(path, "output is not a regular file"))
     }
 
     /// The output's name as given.
@@ -316,7 +316,7 @@ fn create_temp(path: &Path, dir: &Path) -> Result<(PathBuf, File)> {
             }
         }
     }
-    Err(Error::at(
+    Err(out_at(
         path,
         "can't create output: 64 temporary names in a row were taken",
     ))
@@ -326,7 +326,7 @@ fn write_file(f: File, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Resul
     let mut w = std::io::BufWriter::with_capacity(1 << 16, f);
     fill(&mut w)?;
     w.into_inner()
-        .map_err(|e| Error::msg(format!("can't write: {}", e.error())))
+        .map_err(|e| out_msg(format!("can't write: {}", e.error())))
 }
 
 fn write_through(f: File, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
@@ -334,7 +334,7 @@ fn write_through(f: File, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Re
 }
 
 fn stdout_error(e: &Error) -> Error {
-    Error::msg(format!("(stdout): {}", e.msg))
+    out_msg(format!("(stdout): {}", e.msg))
 }
 
 /// A handle on standard output that reports every failed write (Rust's own `Stdout`
@@ -349,7 +349,7 @@ pub fn stdout() -> Result<File> {
 #[cfg(unix)]
 fn stdout_file() -> Result<File> {
     use std::os::fd::FromRawFd;
-    let closed = || Error::msg("(stdout): standard output is closed; nowhere to write the output");
+    let closed = || out_msg("(stdout): standard output is closed; nowhere to write the output");
     // SAFETY: fcntl(F_DUPFD_CLOEXEC) on descriptor 1 only duplicates it (or fails with
     // EBADF when it is closed); it touches no memory.
     let fd = unsafe { libc::fcntl(1, libc::F_DUPFD_CLOEXEC, 3) };
@@ -380,7 +380,7 @@ fn is_dev_null(f: &File) -> bool {
 
 #[cfg(not(unix))]
 fn stdout_file() -> Result<File> {
-    Err(Error::msg(
+    Err(out_msg(
         "(stdout): writing to standard output needs a Unix system here; give a file name",
     ))
 }
@@ -517,4 +517,14 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"x");
         let _ = std::fs::remove_dir_all(d);
     }
+}
+
+/// An [`ErrorKind::Output`] error about `path`.
+fn out_at(path: &Path, msg: impl Into<String>) -> Error {
+    Error::at(path, msg).with_kind(ErrorKind::Output)
+}
+
+/// An [`ErrorKind::Output`] error.
+fn out_msg(msg: impl Into<String>) -> Error {
+    Error::msg(msg).with_kind(ErrorKind::Output)
 }

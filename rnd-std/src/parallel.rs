@@ -1,9 +1,10 @@
 //! Multi-threaded rendering: image rows are handed out in bands to scoped worker
-//! threads, each with its own convolution state; every pixel is computed by the same
-//! code whatever the thread count, so the output is bit-identical for every N (D13).
+//! threads (plain `std` threads, as many as the caller asks for; nothing global, no
+//! pool), each with its own convolution state; every pixel is computed by the same code
+//! whatever the thread count, so the output is bit-identical for every count. The
+//! caller may watch progress and stop a render through a [`Control`].
 
-use std::io::{IsTerminal, Write};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -12,56 +13,144 @@ use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
 use rnd_core::skip::{SkipGrid, SkipPlan};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
+use rnd_core::Param;
+
+use crate::{Error, ErrorKind};
 
 /// Rows per work unit.
 const BAND: usize = 4;
 
-/// Number of worker threads for `-nt` value `nt` (0 and 1 = the calling thread).
+/// The number of threads the system offers this process (at least 1).
 pub fn default_threads() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
 }
 
-/// Renders the whole image with `threads` workers (≤ 1: on the calling thread); draws a
-/// progress line on stderr when `progress` is set and stderr is a terminal.
+/// How far a render has come: see [`Control::on_progress`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// Image rows finished.
+    pub rows_done: usize,
+    /// Image rows in all.
+    pub rows: usize,
+}
+
+/// What the caller of [`render_with`] watches and steers: a progress callback (called
+/// from the worker threads after each band of rows) and a flag that stops the render
+/// when set (checked before each band; the render then returns an error of kind
+/// [`ErrorKind::Cancelled`]).
+///
+/// ```
+/// use std::sync::atomic::AtomicBool;
+/// use rnd_std::parallel::Control;
+///
+/// let stop = AtomicBool::new(false);
+/// let show = |p: rnd_std::parallel::Progress| eprintln!("{}/{}", p.rows_done, p.rows);
+/// let control = Control::new().on_progress(&show).cancel_flag(&stop);
+/// # let _ = control;
+/// ```
+#[derive(Clone, Copy, Default)]
+pub struct Control<'c> {
+    progress: Option<&'c (dyn Fn(Progress) + Sync)>,
+    cancel: Option<&'c AtomicBool>,
+}
+
+impl std::fmt::Debug for Control<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Control")
+            .field("progress", &self.progress.is_some())
+            .field("cancel", &self.cancel)
+            .finish()
+    }
+}
+
+impl<'c> Control<'c> {
+    /// No progress reports, no cancellation.
+    pub fn new() -> Self {
+        Control::default()
+    }
+    /// Calls `f` after each band of rows is finished (from the thread that finished
+    /// it; calls may come from several threads, `rows_done` only grows).
+    pub fn on_progress(mut self, f: &'c (dyn Fn(Progress) + Sync)) -> Self {
+        self.progress = Some(f);
+        self
+    }
+    /// Stops the render as soon as `flag` is set (between bands of rows).
+    pub fn cancel_flag(mut self, flag: &'c AtomicBool) -> Self {
+        self.cancel = Some(flag);
+        self
+    }
+    fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+}
+
+/// Renders the whole image with `threads` workers (≤ 1: on the calling thread): W·H·C
+/// floats, row-major from the top row, C = [`RenderSpec::channels`]. The same bytes for
+/// every thread count.
 ///
 /// # Errors
-/// When the image needs more memory than this process may use ([`crate::mem_limit`])
-/// or the system refuses it (checked before rendering starts).
+/// As [`render_with`].
 pub fn render(
     spec: &RenderSpec<'_>,
     vol: AnyVolume<'_>,
     kernel: KernelName,
     threads: usize,
-    progress: bool,
+) -> crate::Result<Vec<f32>> {
+    render_with(spec, vol, kernel, threads, &Control::new())
+}
+
+/// [`render`], reporting progress to and stopping on request of `control`.
+///
+/// # Errors
+/// [`ErrorKind::Core`] when the volume does not suit the arithmetic
+/// ([`RenderSpec::check_volume`]); [`ErrorKind::Memory`] when the image needs more
+/// memory than this process may use ([`crate::mem_limit`]) or the system refuses it
+/// (both checked before rendering starts); [`ErrorKind::Cancelled`] when `control`'s
+/// flag was set.
+pub fn render_with(
+    spec: &RenderSpec<'_>,
+    vol: AnyVolume<'_>,
+    kernel: KernelName,
+    threads: usize,
+    control: &Control<'_>,
 ) -> crate::Result<Vec<f32>> {
     spec.check_volume(vol.sizes())?;
     let [w, h] = spec.size();
-    let len = (w as u64)
-        .checked_mul(h as u64)
-        .and_then(|n| n.checked_mul(spec.channels() as u64))
-        .filter(|&n| usize::try_from(n).is_ok())
-        .ok_or_else(|| crate::Error::msg(format!("a {w} x {h} image is too large to address")))?;
+    let image_err = |e: Error| Error {
+        param: Some(Param::ImageSize),
+        ..e
+    };
+    let len = spec.image_len().ok_or_else(|| {
+        image_err(
+            Error::msg(format!("a {w} x {h} image is too large to address"))
+                .with_kind(ErrorKind::Memory),
+        )
+    })?;
     let what = format!(
         "a {w} x {h} image with {} channel{}",
         spec.channels(),
         if spec.channels() == 1 { "" } else { "s" }
     );
-    crate::check_memory(len.saturating_mul(4), &what)?;
+    crate::check_memory((len as u64).saturating_mul(4), &what).map_err(image_err)?;
     let mut out: Vec<f32> = Vec::new();
-    crate::try_reserve(&mut out, len as usize, &what)?;
-    out.resize(len as usize, 0.0);
-    struct Task<'s, 'a> {
+    crate::try_reserve(&mut out, len, &what).map_err(image_err)?;
+    out.resize(len, 0.0);
+    struct Task<'s, 'a, 'c> {
         spec: &'s RenderSpec<'a>,
         threads: usize,
-        progress: bool,
+        control: &'s Control<'c>,
         out: Vec<f32>,
     }
-    impl ConvoTask for Task<'_, '_> {
-        type Output = Vec<f32>;
-        fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
+    impl ConvoTask for Task<'_, '_, '_> {
+        type Output = Option<Vec<f32>>;
+        fn run<V: Voxel, K: Kernel<S>, const S: usize>(
+            self,
+            vol: Volume<'_, V>,
+        ) -> Option<Vec<f32>> {
             let spec = self.spec;
+            let control = self.control;
             let [w, h] = spec.size();
             let (w, h) = (w as usize, h as usize);
             let ch = spec.channels();
@@ -73,26 +162,21 @@ pub fn render(
             } else {
                 None
             };
-            let show = self.progress && std::io::stderr().is_terminal();
             let done = AtomicUsize::new(0);
-            let nbands = h.div_ceil(BAND);
-            let report = |n: usize| {
-                if show {
-                    let mut e = std::io::stderr().lock();
-                    let _ = write!(e, "\rrendr go: {:3}% ", 100 * n / nbands.max(1));
-                    let _ = e.flush();
-                }
-            };
-            // Bands of rows are handed out from one queue; with one thread the calling
-            // thread drains it alone.
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
+            // Bands of rows are handed out from one queue; with one thread the calling
+            // thread drains it alone.
             let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
             let work = || loop {
+                if control.cancelled() {
+                    break;
+                }
                 let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
                 let Some((b, chunk)) = next else { break };
                 let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
+                let n = rows.len();
                 spec.render_rows::<V, K, S>(
                     vol,
                     skip.as_ref(),
@@ -100,7 +184,10 @@ pub fn render(
                     chunk,
                     clock_ref.map(|c| c as &dyn Fn() -> f64),
                 );
-                report(done.fetch_add(1, Ordering::Relaxed) + 1);
+                let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
+                if let Some(f) = control.progress {
+                    f(Progress { rows_done, rows: h });
+                }
             };
             if self.threads <= 1 {
                 work();
@@ -111,22 +198,27 @@ pub fn render(
                     }
                 });
             }
-            if show {
-                eprint!("\r          \r");
-            }
-            out
+            (done.load(Ordering::Relaxed) == h).then_some(out)
         }
     }
-    Ok(dispatch(
+    if control.cancelled() {
+        return Err(cancelled());
+    }
+    dispatch(
         vol,
         kernel,
         Task {
             spec,
             threads,
-            progress,
+            control,
             out,
         },
-    ))
+    )
+    .ok_or_else(cancelled)
+}
+
+fn cancelled() -> Error {
+    Error::msg("the render was cancelled").with_kind(ErrorKind::Cancelled)
 }
 
 /// Builds the skip grid of `plan` with `threads` workers, each taking a run of whole

@@ -91,7 +91,7 @@ fn cube_rgb_f64_engine_matches_reference() {
     let mut p = cube_params();
     p.reference = false;
     let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
-    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false).unwrap();
+    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2).unwrap();
     let reference = nrrd::read(&d.join("cube-rgb.nrrd")).unwrap();
     assert_eq!(reference.sizes(), &[4, 320, 280]);
     let want = reference.data.to_f32();
@@ -192,7 +192,7 @@ fn cube_rgb_matches_every_pixel() {
         "the default engine is the reference arithmetic"
     );
     let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
-    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2, false).unwrap();
+    let img = parallel::render(&spec, vol.view(), KernelName::Bspln3, 2).unwrap();
     let want = nrrd::read(&d.join("cube-rgb.nrrd")).unwrap().data.to_f32();
     assert_eq!(img.len(), want.len());
     let mut worst = 0.0f32;
@@ -315,7 +315,7 @@ fn sdg_f32(
 /// Threads 1, 2 and 7 give identical bytes for every valid probe/blend pair.
 #[test]
 fn threads_give_identical_images() {
-    use rnd_core::light::Light;
+    use rnd_core::light::{Light, LightSpace};
     use rnd_core::render::AnyVolume;
     let (data, sizes, itow) = sdg_f32(2, [24, 26, 28], [0.1, 0.2, 0.0], [0.0; 3]);
     let vol = Volume::new(&data, sizes, itow).unwrap();
@@ -325,7 +325,7 @@ fn threads_give_identical_images() {
     )
     .unwrap();
     let lut = Lut::generate(None, Some(&atxf), false, false, 256, 0.0, 1.0).unwrap();
-    let lights = [Light::new([1.0, 0.5, 0.2], [1.0, 1.0, 0.0], false).unwrap()];
+    let lights = [Light::new([1.0, 0.5, 0.2], [1.0, 1.0, 0.0], LightSpace::World).unwrap()];
     let mut p = cube_params();
     p.camera.size = [37, 23];
     p.plane_sep = 0.05;
@@ -340,12 +340,11 @@ fn threads_give_identical_images() {
             for reference in [false, true] {
                 p.reference = reference;
                 let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                let one = parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1, false)
-                    .unwrap();
+                let one =
+                    parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, 1).unwrap();
                 for n in [2, 7] {
                     let many =
-                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n, false)
-                            .unwrap();
+                        parallel::render(&spec, AnyVolume::F32(vol), KernelName::Ctmr, n).unwrap();
                     let same = one
                         .iter()
                         .zip(&many)
@@ -368,7 +367,7 @@ fn threads_give_identical_images() {
 /// its direction, and so lit colour, is noise in either engine.
 #[test]
 fn reference_arithmetic_agrees_with_f64_engine() {
-    use rnd_core::light::Light;
+    use rnd_core::light::{Light, LightSpace};
     use rnd_core::render::AnyVolume;
     let (data, sizes, itow) = sdg_f32(16, [30, 26, 28], [0.3, 0.2, 0.1], [0.1, 0.0, 0.0]);
     let vol = Volume::new(&data, sizes, itow).unwrap();
@@ -384,8 +383,8 @@ fn reference_arithmetic_agrees_with_f64_engine() {
     .unwrap();
     let lut = Lut::generate(Some(&ctxf), Some(&atxf), false, false, 256, 0.0, 10.0).unwrap();
     let lights = [
-        Light::new([1.0, 0.5, 0.2], [1.0, 1.0, 0.0], true).unwrap(),
-        Light::new([0.2, 0.5, 1.0], [-1.0, 0.3, 2.0], false).unwrap(),
+        Light::new([1.0, 0.5, 0.2], [1.0, 1.0, 0.0], LightSpace::View).unwrap(),
+        Light::new([0.2, 0.5, 1.0], [-1.0, 0.3, 2.0], LightSpace::World).unwrap(),
     ];
     let mut p = cube_params();
     p.camera.size = [41, 33];
@@ -405,10 +404,10 @@ fn reference_arithmetic_agrees_with_f64_engine() {
                     p.blend = blend;
                     p.reference = false;
                     let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                    let fast = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false).unwrap();
+                    let fast = parallel::render(&spec, AnyVolume::F32(vol), k, 2).unwrap();
                     p.reference = true;
                     let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-                    let refd = parallel::render(&spec, AnyVolume::F32(vol), k, 2, false).unwrap();
+                    let refd = parallel::render(&spec, AnyVolume::F32(vol), k, 2).unwrap();
                     assert_eq!(fast.len(), refd.len());
                     let ch = fast.len() / (41 * 33);
                     let pixels = fast.len() / ch;

@@ -5,7 +5,7 @@ use rnd_core::affine::Affine4;
 use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::{Kernel, KernelName};
-use rnd_core::light::{Light, Phong};
+use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
@@ -428,7 +428,7 @@ fn depth_cue_is_linear_in_depth() {
     let (data, itow) = make(11, &g);
     let vol = Volume::new(&data, g.sizes, itow).unwrap();
     let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
-    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
+    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], LightSpace::View).unwrap()];
     for reference in ENGINES {
         let mut p = RenderParams::new(cam(
             [1.0, 2.0, 5.0],
@@ -495,7 +495,7 @@ fn blinn_phong_on_a_sphere() {
     let a = Txf::new(TxfSpace::Alpha, &[&[-0.37, 0.0], &[-0.36, 1.0]]).unwrap();
     let lut = Lut::generate(None, Some(&a), false, false, 4096, -3.0, 0.0).unwrap();
     let ldir = [1.0, 0.5, 1.0];
-    let lights = [Light::new([1.0; 3], ldir, false).unwrap()];
+    let lights = [Light::new([1.0; 3], ldir, LightSpace::World).unwrap()];
     let size = 81u32;
     for reference in ENGINES {
         let mut p = RenderParams::new(cam(
@@ -596,7 +596,7 @@ fn fast_and_plain(
 fn tiny_opacity_over_an_infinite_step_is_transparent() {
     let sv = SdgVolume::new(11, [6, 7, 8], false);
     let lut = Lut::new(-1.0, 3.0, vec![[0.9, 0.5, 0.2, 7.5e-9]; 4]).unwrap();
-    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], true).unwrap()];
+    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
     for ortho in [false, true] {
         let mut p = RenderParams::new(cam(
             [7.0, 8.0, 4.5],
@@ -652,7 +652,7 @@ proptest::proptest! {
         // Opacity only in [lo, lo + width] (in function units).
         let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + width / 2.0) * scale, 0.7], &[(lo + width) * scale, 0.0]]).unwrap();
         let lut = Lut::generate(None, Some(&a), false, false, 1000, -2.0 * scale, 2.0 * scale).unwrap();
-        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
         let mut p = RenderParams::new(cam(fr, [0.0; 3], [0.0, 0.0, 1.0], -2.0, 2.0, [24, 18], false));
         p.plane_sep = 0.02;
         p.unit_step = 0.05;
@@ -771,7 +771,7 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
 #[test]
 fn tiny_light_direction_under_reference_arithmetic() {
     let lut = constant_lut([0.5, 0.5, 0.5, 0.5]);
-    let lights = [Light::new([1.0, 0.9, 0.8], [-1.86e-35; 3], true).unwrap()];
+    let lights = [Light::new([1.0, 0.9, 0.8], [-1.86e-35; 3], LightSpace::View).unwrap()];
     let mut p = RenderParams::new(cam(
         [3.0, 2.0, 1.0],
         [0.0; 3],
@@ -798,7 +798,7 @@ fn tiny_light_direction_under_reference_arithmetic() {
 #[test]
 fn negative_specular_exponent_is_refused() {
     let lut = constant_lut([1.0, 1.0, 1.0, 0.5]);
-    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], true).unwrap()];
+    let lights = [Light::new([1.0; 3], [0.0, 0.0, 1.0], LightSpace::View).unwrap()];
     let mut p = RenderParams::new(cam(
         [0.0, 0.0, 5.0],
         [0.0; 3],
@@ -852,7 +852,7 @@ fn every_probe_blend_pair_blends_its_samples() {
     )
     .unwrap();
     let lut = Lut::generate(Some(&c), Some(&a), false, false, 256, 0.0, 1.0).unwrap();
-    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], false).unwrap()];
+    let lights = [Light::new([1.0, 0.9, 0.8], [1.0, 2.0, 3.0], LightSpace::World).unwrap()];
     for reference in ENGINES {
         let mut checked = 0;
         for probe in Probe::ALL {
@@ -995,7 +995,7 @@ fn loop_case(
     )
     .unwrap();
     let lev = Levoy::new(vec![[(0.4 * scale) as f32, 0.5, 0.8]]).unwrap();
-    let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+    let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
     let [fr, at] = fr_at;
     let mut p = RenderParams::new(cam(
         fr,
@@ -1095,7 +1095,7 @@ proptest::proptest! {
         let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + hi) / 2.0 * scale, 0.7], &[hi * scale, 0.0]]).unwrap();
         let c = Txf::new(TxfSpace::Rgb, &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]]).unwrap();
         let lut = Lut::generate(Some(&c), Some(&a), false, false, 400, -2.0 * scale, 2.0 * scale).unwrap();
-        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], true).unwrap()];
+        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
         let mut p = RenderParams::new(cam(fr, at, [0.0, 0.0, 1.0], -2.5, 2.5, [11, 9], ortho));
         p.plane_sep = step;
         p.unit_step = 0.05;

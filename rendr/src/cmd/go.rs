@@ -1,5 +1,6 @@
 //! `rendr go`: render a volume.
 
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
@@ -394,8 +395,20 @@ pub fn run_cached(
     }
     let [w, h] = spec.size();
     let t0 = std::time::Instant::now();
-    let data =
-        rnd_std::parallel::render(&spec, vol.view(), kernel, threads, progress).context("-sz")?;
+    let show = progress && std::io::stderr().is_terminal();
+    let report = |p: rnd_std::parallel::Progress| {
+        let mut e = std::io::stderr().lock();
+        let _ = write!(e, "\rrendr go: {:3}% ", 100 * p.rows_done / p.rows.max(1));
+        let _ = e.flush();
+    };
+    let mut control = rnd_std::parallel::Control::new();
+    if show {
+        control = control.on_progress(&report);
+    }
+    let data = rnd_std::parallel::render_with(&spec, vol.view(), kernel, threads, &control)?;
+    if show {
+        eprint!("\r          \r");
+    }
     if std::env::var("RND_VERBOSE")
         .ok()
         .and_then(|v| v.parse::<i32>().ok())

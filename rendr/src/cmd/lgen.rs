@@ -105,7 +105,28 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if len > 1 << 24 {
         bail!("-l: LUT length {len} is unreasonably large (max 16777216)");
     }
-    let lut = Lut::generate(ctxf.as_ref(), atxf.as_ref(), crs, ars, len, lo, hi)?;
+    if crs && ctxf.is_none() {
+        bail!("-rs: can't rescale colour without a colour txf");
+    }
+    if ars && atxf.is_none() {
+        bail!("-rs: can't rescale opacity without an opacity txf");
+    }
+    let mut b = Lut::builder(lo, hi).entries(len);
+    if let Some(c) = &ctxf {
+        b = if crs {
+            b.colour_stretched(c)
+        } else {
+            b.colour(c)
+        };
+    }
+    if let Some(t) = &atxf {
+        b = if ars {
+            b.opacity_stretched(t)
+        } else {
+            b.opacity(t)
+        };
+    }
+    let lut = b.build()?;
     if ctxf.is_none() && atxf.is_none() {
         eprintln!(
             "rendr lgen: warning: no transfer functions (both \"x\"): r,g,b,a = 1 everywhere"
