@@ -126,7 +126,11 @@ fn option_of(p: rnd_core::Param) -> Option<&'static str> {
 /// An error's one-line text, with the option of the parameter the library names (when
 /// it does) put first: the library speaks of "plane separation", the user typed `-s`.
 fn with_option(e: &anyhow::Error) -> String {
-    let text = format!("{e:#}");
+    // The library's advice, in the CLI's words.
+    let text = format!("{e:#}").replace(
+        "use the f64 arithmetic",
+        "use the f64 arithmetic (-ref false)",
+    );
     let param = e.chain().find_map(|c| {
         c.downcast_ref::<rnd_core::Error>()
             .and_then(|x| x.param)

@@ -190,7 +190,7 @@ fn option_errors_are_one_line() {
     fails(
         &d,
         &["cam", "@c.txt", "-fov", "170"],
-        "-fov: need 0 < FOV < 160",
+        "-fov: field of view must be in (0, 160) degrees",
         None,
     );
     fails(&d, &["cam", "@c.txt", "-sz", "0", "10"], "-sz", None);
@@ -921,12 +921,15 @@ fn bad_input_corpus() {
     let go_cases: &[(&[&str], &str)] = &[
         (
             &["-p", "v", "-b", "over", "-o", "o.nrrd"],
-            "with over blend, must probe rgba or rgbalit",
+            "-b: blend over needs probe rgba or rgbalit",
         ),
-        (&["-p", "rgba", "-o", "o.nrrd"], "needs a LUT (-lut)"),
+        (
+            &["-p", "rgba", "-o", "o.nrrd"],
+            "-lut: probe rgba needs a LUT",
+        ),
         (
             &["-p", "rgbalit", "-lut", "lut.nrrd", "-o", "o.nrrd"],
-            "needs lights (-lit)",
+            "-lit: probe rgbalit needs lights",
         ),
         (
             &[
@@ -995,7 +998,7 @@ fn bad_input_corpus() {
         ),
         (&["-s", "-1", "-o", "o.nrrd"], "-s: plane separation"),
         (&["-us", "0", "-o", "o.nrrd"], "-us: unit step"),
-        (&["-a1", "1.5", "-o", "o.nrrd"], "-a1: alphaNear1"),
+        (&["-a1", "1.5", "-o", "o.nrrd"], "-a1: alpha_near1"),
         (&["-p", "colour", "-o", "o.nrrd"], "unknown probe"),
         (&["-b", "min", "-o", "o.nrrd"], "unknown blend"),
         (&["-k", "cubic", "-o", "o.nrrd"], "unknown kernel"),
@@ -1050,7 +1053,7 @@ fn bad_input_corpus() {
     fails(
         &d,
         &["lgen", "-i", "x", "x", "-mm", "1", "1", "-o", "l2.nrrd"],
-        "-mm: need finite min < max",
+        "-mm: LUT domain needs finite min < max",
         Some("l2.nrrd"),
     );
     fails(
@@ -1265,8 +1268,8 @@ fn ref_refuses_axes_beyond_f32() {
     fails(
         &d,
         &go,
-        "long.nrrd: an axis of 16777216 samples is beyond exact f32 index arithmetic \
-         (at most 16777215); render with -ref false",
+        "-i: long.nrrd: an axis of 16777216 samples is beyond the reference's exact f32 \
+         index arithmetic (at most 16777215); use the f64 arithmetic (-ref false)",
         Some("x.nrrd"),
     );
     let mut f64_engine = go.to_vec();
@@ -1317,7 +1320,7 @@ fn ref_refuses_axes_beyond_f32() {
     fails(
         &d,
         &tiny,
-        "-us 1e-60 / -s 0.1 are beyond the reference's f32 arithmetic; use -ref false",
+        "-ref: unit step 1e-60 / plane separation 0.1 are beyond the reference's f32 arithmetic; use the f64 arithmetic (-ref false)",
         Some("z.nrrd"),
     );
     tiny.extend(["-ref", "false"]);

@@ -622,7 +622,8 @@ fn tiny_opacity_over_an_infinite_step_is_transparent() {
         // exponent step / us is still infinite in f32, and the result is the same.
         p.reference = true;
         let e = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap_err();
-        assert!(e.msg.contains("-s 1.4e114"), "{e}");
+        assert!(e.msg.contains("plane separation 1.4e114"), "{e}");
+        assert_eq!(e.param, Some(rnd_core::Param::Reference));
         p.plane_sep = 3e38;
         p.unit_step = 1e-3;
         let spec = RenderSpec::new(p, Some(&lut), None, &lights).unwrap();
@@ -761,7 +762,7 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     p.reference = true;
     let e = RenderSpec::new(p, None, None, &[]).unwrap_err();
     assert!(
-        e.msg.contains("the camera") && e.msg.contains("-ref false"),
+        e.msg.contains("the camera") && e.msg.contains("f64 arithmetic"),
         "{e}"
     );
 }
@@ -788,7 +789,7 @@ fn tiny_light_direction_under_reference_arithmetic() {
     p.reference = true;
     let e = RenderSpec::new(p, Some(&lut), None, &lights).unwrap_err();
     assert!(
-        e.msg.contains("light 1") && e.msg.contains("-ref false"),
+        e.msg.contains("light 1") && e.msg.contains("f64 arithmetic"),
         "{e}"
     );
 }
