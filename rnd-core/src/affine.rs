@@ -125,7 +125,7 @@ impl Affine4 {
         self.m.iter().all(|x| x.is_finite())
     }
 
-    /// Affine inverse `[[M⁻¹, −M⁻¹t], [0 0 0 1]]` (SPEC §5.1). The bottom row of `self` is
+    /// Affine inverse `[[M⁻¹, −M⁻¹t], [0 0 0 1]]` (M the 3×3 linear part, t the translation). The bottom row of `self` is
     /// assumed to be `0 0 0 1` and is not read. Fails when M is singular (relative to its
     /// scale) or not finite.
     pub fn affine_inverse(&self) -> Result<Affine4> {

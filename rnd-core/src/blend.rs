@@ -1,4 +1,5 @@
-//! How the samples of one ray are reduced to a pixel (SPEC §9.5).
+//! How the samples of one ray are reduced to a pixel: the maximum, the sum, the mean of
+//! the counted samples, or front-to-back `over` compositing of premultiplied colours.
 
 use core::fmt;
 use core::str::FromStr;

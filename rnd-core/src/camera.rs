@@ -1,5 +1,6 @@
 //! The camera: look-from / look-at / up, clipping planes, field of view, image size
-//! (SPEC §5.2), and the derived view frame.
+//! and projection, and the derived view frame: n = (fr − at)/|fr − at| points back at
+//! the eye, u = up × n (normalized) to the right, v = n × u up.
 
 use crate::affine::Affine4;
 use crate::error::{Error, ErrorKind, Param, Result};
@@ -174,7 +175,13 @@ fn cam_err(param: Param, msg: alloc::string::String) -> Error {
 }
 
 impl Camera {
-    /// Checks the inputs and computes the frame (SPEC §5.2).
+    /// Checks the inputs and computes the frame (u, v, n, the eye distance d, the
+    /// near and far plane distances from the eye d + nc and d + fc, and the image plane
+    /// through the look-at point, of height 2·d·tan(fov/2)).
+    ///
+    /// # Errors
+    /// [`ErrorKind::Camera`] naming the parameter ([`Param`]) that is not finite, out
+    /// of range, or leaves no view (look-from = look-at, up parallel to the view).
     pub fn new(spec: CameraSpec) -> Result<Camera> {
         use alloc::format;
         let fr = DVec3::from_array(spec.fr);
@@ -321,7 +328,7 @@ impl Camera {
     }
 
     /// Image-plane position (u, v) of the centre of pixel (hi, vi); vi = 0 is the top row
-    /// (SPEC §5.3).
+    /// (pixel centres at (hi + ½)/W and (vi + ½)/H across the image plane).
     #[inline]
     pub fn image_plane(&self, hi: u32, vi: u32) -> (f64, f64) {
         let us = -self.wdth / 2.0 + self.wdth * (hi as f64 + 0.5) / self.spec.size[0] as f64;
@@ -344,7 +351,9 @@ impl Camera {
     }
 
     /// View-space start on the near plane and per-plane step for pixel (hi, vi), for a
-    /// plane separation `plane_sep` (SPEC §5.3).
+    /// plane separation `plane_sep`: perspective rays start where the line from the eye
+    /// through the pixel's image-plane point meets the near plane; orthographic rays
+    /// start at that point moved onto the near plane.
     #[inline]
     pub fn ray(&self, hi: u32, vi: u32, plane_sep: f64) -> ([f64; 3], [f64; 3]) {
         let (us, vs) = self.image_plane(hi, vi);

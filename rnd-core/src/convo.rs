@@ -1,4 +1,5 @@
-//! Separable 3-D convolution at a point (SPEC §7.2): the inside rule, value, index- and
+//! Separable 3-D convolution at a point: the inside rule (every sample of the kernel's
+//! support lies in the volume), value, index- and
 //! world-space gradient.
 //!
 //! [`Convo`] is generic over the voxel type `V`, the kernel `K` and its support `S`, so
@@ -306,7 +307,7 @@ fn two<const S: usize>(w: [f32; S]) -> [f32; 2] {
 }
 
 /// Where index coordinate `x` puts a kernel support on an axis of `size` samples (the
-/// inside rule, SPEC §7.2).
+/// inside rule).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Place {
     /// The support starts before the first sample (or `x` is NaN or hugely negative).

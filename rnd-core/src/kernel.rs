@@ -1,4 +1,5 @@
-//! Reconstruction kernels (SPEC §7.1) and their first and second derivatives.
+//! Reconstruction kernels (box, tent, quadratic and cubic B-splines, Catmull-Rom and
+//! the C4-hexic) and their first and second derivatives.
 //!
 //! Each kernel is a zero-sized type implementing [`Kernel<S>`] where `S` is its support
 //! (samples per axis). The piecewise polynomials are written once, generic over
@@ -30,7 +31,8 @@ fn sgn<T: Float>(x: T) -> T {
 /// A separable reconstruction kernel with compile-time support `S`.
 ///
 /// The weight of sample `n + lo + i` (for `i` in `0..S`) at fractional position `alpha`
-/// is `K(alpha - lo - i)` where `lo` is [`Kernel::LO`] (SPEC §7.2).
+/// is `K(alpha - lo - i)` where `lo` is [`Kernel::LO`]; `n` and `alpha` are the integer
+/// and fractional parts of the index coordinate (of coordinate + ½ for odd supports).
 pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     /// The kernel's run-time name.
     const NAME: KernelName;

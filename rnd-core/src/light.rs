@@ -1,4 +1,7 @@
-//! Directional lights, Blinn-Phong shading and depth cueing (SPEC §3.6, §9.4).
+//! Directional lights, Blinn-Phong shading of a material colour m (ka·m + Σ over lights
+//! of colour c: c·(kd·max(0, N·L)·m + ks·max(0, N·H)^p), N = −∇f/|∇f|, L towards the
+//! light, H the half-way vector of L and the direction to the eye) and depth cueing
+//! (colours scaled from `dcn` at the near plane to `dcf` at the far plane).
 
 use alloc::vec::Vec;
 

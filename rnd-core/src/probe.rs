@@ -1,4 +1,5 @@
-//! What each ray sample measures (SPEC §9.1).
+//! What each ray sample measures: positions, value, gradient, colour from a LUT, or
+//! lit colour.
 
 use core::fmt;
 use core::str::FromStr;
@@ -79,7 +80,8 @@ impl Probe {
         }
     }
     /// True for the probes defined at every sample (positions and inside); the others
-    /// count only where the convolution is inside (SPEC §9.2).
+    /// count only where the convolution is inside (the kernel's support lies in the
+    /// volume).
     pub fn everywhere(self) -> bool {
         self <= Probe::Inside
     }

@@ -2,7 +2,7 @@
 //! program's own f32 operation sequence, so that renderings agree with its images bit
 //! for bit where possible.
 //!
-//! The reference computed everything in `float` (SPEC D15), and float results depend on
+//! The reference program computed everything in C `float` (f32), and float results depend on
 //! the order of every operation. The sequence below was recovered by experiment against
 //! `cube-rgb.nrrd` (`docs/VERIFICATION.md`, "Reference arithmetic"): each choice here is
 //! the one under which that image is reproduced (87,000 of its 89,600 pixels bit for

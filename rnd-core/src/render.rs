@@ -76,7 +76,10 @@ pub struct RenderParams {
 }
 
 impl RenderParams {
-    /// Parameters with the SPEC §12 defaults and the given camera.
+    /// Parameters with the defaults of `rendr go` and the given camera: plane
+    /// separation 0.1, probe value, blend max, outside value 0, unit step 1, no early
+    /// termination, default Blinn-Phong, no depth cue, no time channel, skipping and
+    /// the batched loop on, the reference arithmetic, the widest vector level.
     pub fn new(camera: CameraSpec) -> Self {
         RenderParams {
             camera,

@@ -1,4 +1,5 @@
-//! Synthetic data: test functions (SPEC D9) and the sampling-grid geometry (§4.13).
+//! Synthetic data: the test functions of `rendr sdg` ([`FUNCTIONS`]) sampled on a grid
+//! whose geometry is given by edge lengths, shear, rotation and centre ([`Grid`]).
 
 use alloc::vec::Vec;
 

@@ -1,4 +1,4 @@
-//! Transfer functions (SPEC §8): control-point maps in rgb / hsv / alpha, HSV→RGB, LUT
+//! Transfer functions: control-point maps in rgb / hsv / alpha, HSV→RGB, LUT
 //! generation and lookup, and Levoy (1988) iso-contour opacity.
 
 use alloc::vec::Vec;
@@ -58,7 +58,8 @@ impl FromStr for TxfSpace {
     }
 }
 
-/// HSV → RGB (hexcone, SPEC §8.2). All components in [0, 1]; H = 1 behaves like H = 0.
+/// HSV → RGB by the hexcone model (H in sixths of the circle: the sextant picks which
+/// of R, G, B is V, which is V·(1 − S) and which ramps between). All components in [0, 1]; H = 1 behaves like H = 0.
 pub fn hsv_to_rgb(hsv: [f64; 3]) -> [f64; 3] {
     let [h, s, v] = hsv;
     if s == 0.0 {
@@ -306,7 +307,8 @@ impl<'t> LutBuilder<'t> {
     }
 }
 
-/// A 1-D RGBA lookup table over [vmin, vmax] with cell-centred entries (SPEC §3.4, §8.3).
+/// A 1-D RGBA lookup table over [vmin, vmax] with cell-centred entries: entry i of N
+/// stands for the values of cell [vmin + i·w, vmin + (i + 1)·w), w = (vmax − vmin)/N.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lut {
     vmin: f64,
@@ -463,7 +465,8 @@ impl Lut {
         &self.rgba
     }
 
-    /// Nearest cell-centred entry for value `v` (SPEC §8.4): clamped to the domain, no
+    /// Nearest cell-centred entry for value `v`, entry floor((v − vmin)/(vmax − vmin)·N):
+    /// clamped to the domain, no
     /// interpolation. NaN maps to entry 0.
     #[inline]
     pub fn lookup(&self, v: f32) -> [f32; 4] {
@@ -488,7 +491,8 @@ impl Lut {
 }
 
 /// Levoy iso-contour opacity functions: a set of (isovalue v, thickness r, max opacity a)
-/// (SPEC §3.5, §8.5).
+/// (after Levoy 1988: contour i gives a·(1 − |f − v|/(r·|∇f|)) where |f − v| < r·|∇f|,
+/// else 0; the contours combine as 1 − Π(1 − αᵢ)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Levoy {
     items: Vec<[f32; 3]>,
@@ -560,7 +564,7 @@ mod tests {
     use super::*;
 
     /// The entry index is floor((v − vmin)/(vmax − vmin)·len) clamped to [0, len − 1]
-    /// (SPEC §8.4), NaN giving entry 0: checked against that formula at and next to
+    /// (the lookup rule), NaN giving entry 0: checked against that formula at and next to
     /// every entry boundary, outside the domain, and for odd domains.
     #[test]
     fn lut_index_is_the_clamped_floor() {

@@ -41,7 +41,7 @@ fn rows(n: &Nrrd, c: usize) -> Vec<Vec<f64>> {
     n.data.to_f64().chunks(c).map(<[f64]>::to_vec).collect()
 }
 
-/// Loads a control-point transfer function (SPEC §3.3): `#space:=` (or `#range:=`) rgb,
+/// Loads a control-point transfer function (a text array with a comment line): `#space:=` (or `#range:=`) rgb,
 /// hsv or alpha; 4 or 2 columns; rows sorted by position.
 pub fn load_txf(path: &Path) -> Result<Txf> {
     txf_from_nrrd(path, nrrd::read(path)?)
@@ -68,7 +68,7 @@ pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
     Txf::new(space, &refs).map_err(|e| Error::from(e).with_path(path))
 }
 
-/// Loads a LUT (SPEC §3.4): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
+/// Loads a LUT (a NRRD or text array): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
 /// centring is given).
 pub fn load_lut(path: &Path) -> Result<Lut> {
     lut_from_nrrd(path, nrrd::read(path)?)
@@ -119,7 +119,7 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
     Lut::new(lo, hi, rgba).map_err(|e| Error::from(e).with_path(path))
 }
 
-/// Loads Levoy iso-contours (SPEC §3.5): 3 columns `v r a` per line.
+/// Loads Levoy iso-contours (isovalue, thickness, opacity): 3 columns `v r a` per line.
 pub fn load_levoy(path: &Path) -> Result<Levoy> {
     levoy_from_nrrd(path, nrrd::read(path)?)
 }
@@ -140,7 +140,7 @@ pub fn levoy_from_nrrd(path: &Path, n: Nrrd) -> Result<Levoy> {
     Levoy::new(items).map_err(|e| Error::from(e).with_path(path))
 }
 
-/// Loads lights (SPEC §3.6): `#space:=rgb|hsv` (rgb when absent), 7 columns
+/// Loads lights (one per row, colour then direction then view-space flag): `#space:=rgb|hsv` (rgb when absent), 7 columns
 /// `c0 c1 c2 d0 d1 d2 vsp`.
 pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
     lights_from_nrrd(path, nrrd::read(path)?)

@@ -1,5 +1,6 @@
-//! Output images of `go`: NRRD (3-D float, channel axis first; SPEC D4) or 8-bit PNG
-//! (SPEC D12).
+//! Output images of `go`: NRRD (3-D float, sizes C × W × H: the channel axis first, then
+//! the image's columns and rows from the top) or 8-bit PNG (grey for one channel, RGB for
+//! three or more; values mapped linearly from a range onto 0..255).
 
 use std::path::Path;
 

@@ -5,7 +5,7 @@
 //! renderer ([`files`]: transfer functions, LUTs, Levoy files, lights), output images
 //! ([`image_out`]: NRRD or PNG) and multi-threaded rendering ([`parallel`]). Every error
 //! ([`Error`]) names the file it concerns.
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod error;
 pub mod files;

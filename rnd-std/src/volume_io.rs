@@ -1,5 +1,7 @@
 //! Volume file → renderable volume: voxel storage (f32 or i16) plus index-to-world
-//! geometry, with the conversions of SPEC D11 recorded so `info` can report them. Any
+//! geometry, with the conversions made to render it (a leading axis of size 1 dropped,
+//! samples of other types than `short` converted to `float`, ...) recorded so `info` can
+//! report them. Any
 //! format of [`crate::formats`] is read (NRRD, NIfTI, MetaImage, DICOM).
 
 use std::path::Path;
@@ -34,7 +36,7 @@ pub struct VolumeBuf {
     pub file_type: String,
     /// World space name (`left-posterior-superior` when the file says so).
     pub space: Option<String>,
-    /// Conversions applied (D11), one sentence each; empty for a standard volume.
+    /// Conversions applied, one sentence each; empty for a standard volume.
     pub notes: Vec<String>,
     /// The format of the file it was read from.
     pub format: Format,

@@ -2,7 +2,7 @@
 //! every scalar type) and plain-text numeric arrays.
 //!
 //! [`read`] accepts either: a file not starting with the `NRRD` magic is read as a
-//! plain-text table (SPEC §3.2). Sizes are checked against the data (and the machine's
+//! plain-text table (one row per line, numbers separated by whitespace or commas, `#` comments). Sizes are checked against the data (and the machine's
 //! memory) before anything is allocated.
 
 mod header;

@@ -1,4 +1,4 @@
-//! Plain-text numeric arrays (SPEC §3.2): one row per line, numbers separated by
+//! Plain-text numeric arrays: one row per line, numbers separated by
 //! whitespace (or commas), `#` comments, `#key:=value` pairs; ragged rows are refused.
 
 use std::io::Write;
