@@ -346,7 +346,7 @@ fn sdg_and_info_geometry() {
     );
     // Columns (0,1,0), (-1,0.5,0), (0,0,1), origin (2.5, 0.25, 1).
     let v = rnd_std::volume_io::load_volume(&d.join("b.nrrd")).unwrap();
-    let m = v.itow;
+    let m = v.itow();
     let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
     assert!(close(m.column3(0), [0., 1., 0.]) && close(m.column3(1), [-1., 0.5, 0.]));
     assert!(close(m.column3(2), [0., 0., 1.]) && close(m.column3(3), [2.5, 0.25, 1.]));
@@ -423,12 +423,12 @@ fn sdg_zramp_holds_minus_z() {
     ok(&d, &s);
     for (file, scale, tol) in [("z3.nrrd", 1.0, 1e-6), ("z3-us.nrrd", 2500.0, 0.5)] {
         let v = rnd_std::volume_io::load_volume(&d.join(file)).unwrap();
-        let [s0, s1, s2] = v.sizes;
+        let [s0, s1, s2] = v.sizes();
         let n = rnd_std::nrrd::read(&d.join(file)).unwrap();
         for k in 0..s2 {
             for j in 0..s1 {
                 for i in 0..s0 {
-                    let w = v.itow.point([i as f64, j as f64, k as f64]);
+                    let w = v.itow().point([i as f64, j as f64, k as f64]);
                     let x = n.data.get_f64(i + s0 * (j + s1 * k));
                     assert!(
                         (x - (-w[2] * scale)).abs() <= tol * (1.0 + w[2].abs()),
@@ -601,7 +601,7 @@ fn seed_go_walkthrough() {
     })
     .unwrap();
     let vol = rnd_std::volume_io::load_volume(&d.join("cube.nrrd")).unwrap();
-    let wtoi = vol.itow.affine_inverse().unwrap();
+    let wtoi = vol.itow().affine_inverse().unwrap();
     for px in [0usize, 777, 45_000, 89_999] {
         let v = [
             pv[3 * px] as f64,

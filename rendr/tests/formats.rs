@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use rnd_std::formats::{self, Format};
-use rnd_std::volume_io::{load_volume, VolumeData};
+use rnd_std::volume_io::{load_volume, Samples};
 
 fn rendr(dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_rendr"))
@@ -78,10 +78,10 @@ fn write_cases(test: &str) -> Option<(PathBuf, Vec<Case>)> {
     Some((dir, cases))
 }
 
-fn values(d: &VolumeData) -> Vec<f64> {
+fn values(d: Samples<'_>) -> Vec<f64> {
     match d {
-        VolumeData::F32(v) => v.iter().map(|&x| x as f64).collect(),
-        VolumeData::I16(v) => v.iter().map(|&x| x as f64).collect(),
+        Samples::F32(v) => v.iter().map(|&x| x as f64).collect(),
+        Samples::I16(v) => v.iter().map(|&x| x as f64).collect(),
     }
 }
 
@@ -94,13 +94,13 @@ fn independent_writers_round_trip() {
     let teem = rnd_tests::teem("independent_writers_round_trip", "teem-unu");
     for c in &cases {
         let v = load_volume(&c.file).unwrap_or_else(|e| panic!("{}: {e}", c.name));
-        assert_eq!(v.sizes, c.sizes, "{}", c.name);
+        assert_eq!(v.sizes(), c.sizes, "{}", c.name);
         let want_type = if c.kind == "short" { "short" } else { "real" };
         assert_eq!(v.type_name(), want_type, "{}", c.name);
-        assert_eq!(values(&v.data), c.values, "{}: values", c.name);
+        assert_eq!(values(v.data()), c.values, "{}: values", c.name);
         for r in 0..3 {
             for col in 0..4 {
-                let (got, want) = (v.itow.m[4 * r + col], c.affine[4 * r + col]);
+                let (got, want) = (v.itow().m[4 * r + col], c.affine[4 * r + col]);
                 assert!(
                     (got - want).abs() <= 1e-6 * want.abs().max(1.0),
                     "{}: itow[{r}][{col}] = {got}, the writer says {want}",
@@ -136,7 +136,12 @@ fn independent_writers_round_trip() {
             c.name
         );
         let again = load_volume(&out).unwrap();
-        assert_eq!((again.itow, again.data), (v.itow, v.data), "{}", c.name);
+        assert_eq!(
+            (again.itow(), again.data()),
+            (v.itow(), v.data()),
+            "{}",
+            c.name
+        );
         if teem {
             // Teem reads the geometry the same way.
             let head = rnd_tests::run("teem-unu", &["head", out.to_str().unwrap()]);
@@ -190,7 +195,7 @@ fn bad_dicom_series_are_refused_clearly() {
         .collect();
     names.sort();
     let v = load_volume(&names[0]).unwrap();
-    assert_eq!(v.sizes, [7, 6, 5]);
+    assert_eq!(v.sizes(), [7, 6, 5]);
 }
 
 /// The NRRD rendr writes for a case's array and affine, in the format's frame.
@@ -309,10 +314,10 @@ fn hand_made_nifti_reads_and_bad_files_fail_clearly() {
     let dir = rnd_tests::tmpdir("nifti-bad");
     std::fs::write(dir.join("good.nii"), nifti1([3, 2, 3, 4], 4, 16, 352.0, 48)).unwrap();
     let v = load_volume(&dir.join("good.nii")).unwrap();
-    assert_eq!(v.sizes, [2, 3, 4]);
-    assert_eq!(v.itow.m[0], 2.0);
-    match &v.data {
-        VolumeData::I16(d) => assert_eq!(d[1], i16::from_le_bytes([2, 3])),
+    assert_eq!(v.sizes(), [2, 3, 4]);
+    assert_eq!(v.itow().m[0], 2.0);
+    match v.data() {
+        Samples::I16(d) => assert_eq!(d[1], i16::from_le_bytes([2, 3])),
         _ => panic!("short expected"),
     }
     // From stdin, too (recognised by the same peek, nothing read twice).

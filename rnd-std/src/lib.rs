@@ -18,6 +18,26 @@ pub mod volume_io;
 
 pub use error::{Error, ErrorKind, Result};
 
+/// What a program that loads, renders and writes volumes uses, in one
+/// `use rnd_std::prelude::*;`: the core prelude (with this crate's [`Error`],
+/// [`ErrorKind`] and [`Result`]; the core's as `CoreError`, `CoreErrorKind`) and the
+/// std layer's loaders, writers and threaded rendering.
+pub mod prelude {
+    pub use rnd_core::prelude::{
+        render, Affine4, AnyVolume, Blend, Camera, CameraSpec, KernelName, Levoy, Light,
+        LightSpace, Lut, LutBuilder, OwnedVolume, Param, Phong, Probe, Probed, RenderParams,
+        RenderSpec, Txf, TxfSpace, Volume, Voxel,
+    };
+    pub use rnd_core::{Error as CoreError, ErrorKind as CoreErrorKind};
+
+    pub use crate::files::{load_levoy, load_lights, load_lut, load_txf};
+    pub use crate::image_out::{write_image, Image};
+    pub use crate::nrrd::{write_volume, Nrrd};
+    pub use crate::parallel::{render_with, Control, Progress};
+    pub use crate::volume_io::{load_volume, VolumeBuf, VolumeData};
+    pub use crate::{Error, ErrorKind, Result};
+}
+
 /// Total physical memory in bytes (Linux `/proc/meminfo`), if known.
 pub fn mem_total() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/meminfo").ok()?;

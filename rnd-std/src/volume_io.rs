@@ -8,7 +8,7 @@ use std::path::Path;
 
 use rnd_core::affine::Affine4;
 use rnd_core::render::AnyVolume;
-use rnd_core::volume::Volume;
+use rnd_core::volume::OwnedVolume;
 
 use crate::formats::Format;
 use crate::nrrd::{self, Centering, Data, Nrrd};
@@ -23,15 +23,37 @@ pub enum VolumeData {
     I16(Vec<i16>),
 }
 
+/// The samples of a [`VolumeBuf`], borrowed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Samples<'a> {
+    /// 32-bit float.
+    F32(&'a [f32]),
+    /// Signed 16-bit.
+    I16(&'a [i16]),
+}
+
+/// The checked samples and geometry of a [`VolumeBuf`].
+#[derive(Debug, Clone, PartialEq)]
+enum Voxels {
+    F32(OwnedVolume<f32>),
+    I16(OwnedVolume<i16>),
+}
+
 /// A loaded volume: samples, sizes, geometry and what was done to make it renderable.
+/// The samples and geometry are checked when it is made and cannot change after, so
+/// [`VolumeBuf::view`] cannot fail.
+///
+/// ```
+/// use rnd_std::prelude::*;
+/// use rnd_std::volume_io::{VolumeBuf, VolumeData};
+///
+/// let v = VolumeBuf::new(VolumeData::I16(vec![0; 24]), [2, 3, 4], Affine4::IDENTITY).unwrap();
+/// assert_eq!(v.view().sizes(), [2, 3, 4]);
+/// assert!(VolumeBuf::new(VolumeData::I16(vec![0; 23]), [2, 3, 4], Affine4::IDENTITY).is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct VolumeBuf {
-    /// Samples, fast axis first.
-    pub data: VolumeData,
-    /// Sizes, fast axis first.
-    pub sizes: [usize; 3],
-    /// Index-to-world.
-    pub itow: Affine4,
+    vox: Voxels,
     /// NRRD type name of the file's samples.
     pub file_type: String,
     /// World space name (`left-posterior-superior` when the file says so).
@@ -43,24 +65,57 @@ pub struct VolumeBuf {
 }
 
 impl VolumeBuf {
-    /// Borrowed view for rendering.
+    /// A volume made in memory: samples (fast axis first), sizes and index-to-world
+    /// (a NRRD volume without notes; `file_type` `float` or `short`).
+    ///
+    /// # Errors
+    /// [`crate::ErrorKind::Core`] with [`rnd_core::ErrorKind::Volume`] when the sizes do
+    /// not match the samples or `itow` is not an invertible affine matrix.
+    pub fn new(data: VolumeData, sizes: [usize; 3], itow: Affine4) -> Result<VolumeBuf> {
+        let (vox, file_type) = match data {
+            VolumeData::F32(v) => (Voxels::F32(OwnedVolume::from_vec(v, sizes, itow)?), "float"),
+            VolumeData::I16(v) => (Voxels::I16(OwnedVolume::from_vec(v, sizes, itow)?), "short"),
+        };
+        Ok(VolumeBuf {
+            vox,
+            file_type: file_type.to_string(),
+            space: None,
+            notes: Vec::new(),
+            format: Format::Nrrd,
+        })
+    }
+
+    /// Borrowed view for rendering and probing.
     pub fn view(&self) -> AnyVolume<'_> {
-        // Geometry was validated when the buffer was built.
-        match &self.data {
-            VolumeData::F32(v) => AnyVolume::F32(
-                Volume::new(v, self.sizes, self.itow).expect("volume validated at load"),
-            ),
-            VolumeData::I16(v) => AnyVolume::I16(
-                Volume::new(v, self.sizes, self.itow).expect("volume validated at load"),
-            ),
+        match &self.vox {
+            Voxels::F32(v) => AnyVolume::F32(v.view()),
+            Voxels::I16(v) => AnyVolume::I16(v.view()),
         }
+    }
+
+    /// The samples, fast axis first.
+    pub fn data(&self) -> Samples<'_> {
+        match &self.vox {
+            Voxels::F32(v) => Samples::F32(v.data()),
+            Voxels::I16(v) => Samples::I16(v.data()),
+        }
+    }
+
+    /// Sizes, fast axis first.
+    pub fn sizes(&self) -> [usize; 3] {
+        self.view().sizes()
+    }
+
+    /// Index-to-world.
+    pub fn itow(&self) -> Affine4 {
+        *self.view().itow()
     }
 
     /// Voxel type name: `real` (f32) or `short`.
     pub fn type_name(&self) -> &'static str {
-        match self.data {
-            VolumeData::F32(_) => "real",
-            VolumeData::I16(_) => "short",
+        match self.vox {
+            Voxels::F32(_) => "real",
+            Voxels::I16(_) => "short",
         }
     }
 
@@ -230,23 +285,9 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         }
     };
     let space = h.space.clone();
-    let vb = VolumeBuf {
-        data,
-        sizes,
-        itow,
-        file_type,
-        space,
-        notes,
-        format: Format::Nrrd,
-    };
-    // Validate once so view() can't fail.
-    match &vb.data {
-        VolumeData::F32(v) => {
-            Volume::new(v, sizes, itow)?;
-        }
-        VolumeData::I16(v) => {
-            Volume::new(v, sizes, itow)?;
-        }
-    }
+    let mut vb = VolumeBuf::new(data, sizes, itow)?;
+    vb.file_type = file_type;
+    vb.space = space;
+    vb.notes = notes;
     Ok(vb)
 }

@@ -272,7 +272,7 @@ fn rendr_reads_what_teem_writes() {
         let got = nrrd::read(&out).unwrap_or_else(|e| panic!("{t}: {e}"));
         assert_eq!(got.data.len(), 60);
         let v = rnd_std::volume_io::volume_from_nrrd(got).unwrap();
-        assert_eq!(v.sizes, [5, 3, 4]);
+        assert_eq!(v.sizes(), [5, 3, 4]);
         assert!(
             v.notes.iter().any(|n| n.contains("spacing")),
             "{t}: {:?}",

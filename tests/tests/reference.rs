@@ -252,22 +252,22 @@ fn cube_volume_geometry_matches_spec() {
         return;
     };
     let v = volume_io::load_volume(&sh.join("rendr-data/cube.nrrd")).unwrap();
-    assert_eq!(v.sizes, [50, 70, 90]);
+    assert_eq!(v.sizes(), [50, 70, 90]);
     let sp: Vec<f64> = (0..3)
-        .map(|c| rnd_core::math::v3::len(v.itow.column3(c)))
+        .map(|c| rnd_core::math::v3::len(v.itow().column3(c)))
         .collect();
     for (a, b) in sp.iter().zip([0.08, 0.0571428575, 0.0444444455]) {
         assert!((a - b).abs() < 1e-8, "{sp:?}");
     }
-    let o = v.itow.column3(3);
+    let o = v.itow().column3(3);
     for (a, b) in o.iter().zip([-1.96, -1.97142863, -1.97777784]) {
         assert!((a - b).abs() < 1e-7, "{o:?}");
     }
     let (lo, hi) = v.min_max();
     assert!((lo - 0.00234545162).abs() < 1e-9 && (hi - 1.00001502).abs() < 1e-7);
-    let c = v.itow.point([24.5, 34.5, 44.5]);
+    let c = v.itow().point([24.5, 34.5, 44.5]);
     assert!(c.iter().all(|x| x.abs() < 1e-6));
-    let corner = v.itow.point([-0.5, -0.5, -0.5]);
+    let corner = v.itow().point([-0.5, -0.5, -0.5]);
     assert!(corner.iter().all(|x| (x + 2.0).abs() < 1e-6));
     assert!(Path::new(&sh).exists());
 }
@@ -278,18 +278,18 @@ fn real_volumes_load() {
         return;
     };
     let ct = volume_io::load_volume(&sh.join("volumes/imageio-stent-ct.nrrd")).unwrap();
-    assert_eq!(ct.sizes, [128, 128, 256]);
+    assert_eq!(ct.sizes(), [128, 128, 256]);
     assert_eq!(ct.type_name(), "short");
     let (lo, hi) = ct.min_max();
     assert!(lo >= 0.0 && hi <= 2000.0 && hi > lo);
     let head = volume_io::load_volume(&sh.join("volumes/itk-t1-head.nrrd")).unwrap();
-    assert_eq!(head.sizes, [128, 128, 62]);
+    assert_eq!(head.sizes(), [128, 128, 62]);
     assert!(head
         .notes
         .iter()
         .any(|n| n.contains("right-anterior-superior")));
     let water = volume_io::load_volume(&sh.join("volumes/nachr-m2-water-density.nrrd")).unwrap();
-    assert_eq!(water.sizes, [46, 46, 78]);
+    assert_eq!(water.sizes(), [46, 46, 78]);
     assert_eq!(water.type_name(), "real");
 }
 

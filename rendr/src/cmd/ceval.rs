@@ -69,7 +69,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         anyhow::bail!("-w: position must be finite ({} {} {})", w[0], w[1], w[2]);
     }
     let vol = rnd_std::volume_io::load_volume(Path::new(&file))?;
-    let wtoi = vol.itow.affine_inverse()?;
+    let wtoi = vol.itow().affine_inverse()?;
     let wl = format!("{},{},{}", g9(w[0]), g9(w[1]), g9(w[2]));
     if a.flag("wtoi") {
         outln!("{} = WtoI({}) in {file}", list9(&wtoi.point(w)), list9(&w));

@@ -362,7 +362,7 @@ pub fn run_cached(
         lights.as_deref().unwrap_or(&[]),
     )?;
     let vol = cache.get(&input, threads)?;
-    spec.check_volume(vol.sizes)
+    spec.check_volume(vol.sizes())
         .with_context(|| input.display().to_string())?;
     if debug {
         let [w, h] = spec.size();

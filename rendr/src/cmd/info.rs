@@ -26,7 +26,7 @@ pub static SPEC: CmdSpec = CmdSpec {
 pub fn run(a: &Args) -> anyhow::Result<()> {
     for f in a.pos(0) {
         let v = rnd_std::volume_io::load_volume(Path::new(f))?;
-        let [s0, s1, s2] = v.sizes;
+        let [s0, s1, s2] = v.sizes();
         let (lo, hi) = v.min_max();
         outln!("==============================");
         outln!("{f}");
@@ -47,14 +47,14 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         outln!("[{}, {}] is range of values", g9(lo), g9(hi));
         out!(
             "Image-to-World orientation matrix ItoW is:\n{}",
-            matrix(&v.itow, g9)
+            matrix(&v.itow(), g9)
         );
-        let wtoi = v.itow.affine_inverse()?;
+        let wtoi = v.itow().affine_inverse()?;
         out!(
             "World-to-Image inverse of ItoW (via rnd_m4_affine_inv):\n{}",
             matrix(&wtoi, g9)
         );
-        let cols: Vec<[f64; 3]> = (0..3).map(|c| v.itow.column3(c)).collect();
+        let cols: Vec<[f64; 3]> = (0..3).map(|c| v.itow().column3(c)).collect();
         let sp: Vec<f64> = cols.iter().map(|c| v3::len(*c)).collect();
         outln!("The spacings between samples are:");
         outln!(
@@ -82,7 +82,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                         if j == 0 { -0.5 } else { s1 as f64 - 0.5 },
                         if k == 0 { -0.5 } else { s2 as f64 - 0.5 },
                     ];
-                    outln!("   {}\t= ItoW({})", list9(&v.itow.point(ix)), list9(&ix));
+                    outln!("   {}\t= ItoW({})", list9(&v.itow().point(ix)), list9(&ix));
                 }
             }
         }
@@ -92,7 +92,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             (s2 as f64 - 1.0) / 2.0,
         ];
         outln!("The center of the volume is at:");
-        outln!("{}\t= ItoW({})", list9(&v.itow.point(c)), list9(&c));
+        outln!("{}\t= ItoW({})", list9(&v.itow().point(c)), list9(&c));
         if !v.notes.is_empty() {
             outln!("Conversions applied to make it renderable:");
             for n in &v.notes {

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::Path;
 
 use super::header::{Encoding, Endian};
-use super::{each_data, Nrrd};
+use super::{each_data, Data, Nrrd};
 use crate::{Error, Result};
 
 /// How to write.
@@ -214,4 +214,67 @@ fn write_samples(n: &Nrrd, e: Endian, w: &mut dyn Write) -> std::io::Result<()> 
 /// renamed into place only when everything was written.
 pub fn write(n: &Nrrd, path: &Path, opt: WriteOptions) -> Result<()> {
     crate::files::write_atomic(path, |w| write_to(n, opt, w))
+}
+
+/// The NRRD of a volume, with its geometry: `space` (the volume's own, else
+/// `3D-right-handed`), `space directions` (the columns of the index-to-world matrix),
+/// `space origin` and cell centring, so Teem's tools and `rendr` read back the same
+/// samples and index-to-world.
+///
+/// # Errors
+/// When the samples cannot be copied (memory).
+pub fn volume_nrrd(vol: &crate::volume_io::VolumeBuf) -> Result<Nrrd> {
+    use crate::volume_io::Samples;
+    let data = match vol.data() {
+        Samples::F32(v) => Data::F32(copy(v)?),
+        Samples::I16(v) => Data::I16(copy(v)?),
+    };
+    fn copy<T: Copy>(v: &[T]) -> Result<Vec<T>> {
+        let mut out = Vec::new();
+        crate::try_reserve(&mut out, v.len(), "a copy of the samples")?;
+        out.extend_from_slice(v);
+        Ok(out)
+    }
+    let mut n = Nrrd::new(vol.sizes().to_vec(), data)?;
+    let itow = vol.itow();
+    let h = &mut n.header;
+    h.space = Some(
+        vol.space
+            .clone()
+            .unwrap_or_else(|| "3D-right-handed".to_string()),
+    );
+    h.space_directions = Some((0..3).map(|c| Some(itow.column3(c).to_vec())).collect());
+    h.space_origin = Some(itow.column3(3).to_vec());
+    h.centerings = Some(vec![crate::nrrd::Centering::Cell; 3]);
+    Ok(n)
+}
+
+/// Writes a volume as NRRD with its geometry ([`volume_nrrd`]) to `path`, safely (a
+/// temporary file renamed into place when complete; an input is never overwritten).
+///
+/// ```
+/// use rnd_std::prelude::*;
+/// use rnd_std::nrrd::WriteOptions;
+///
+/// let dir = std::env::temp_dir().join(format!("rnd-std-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("ramp.nrrd");
+/// let geom = Affine4::from_spacing([0.5, 0.5, 2.0], [-1.0, 0.0, 3.0]);
+/// let vol = VolumeBuf::new(VolumeData::F32((0..60).map(|i| i as f32).collect()), [3, 4, 5], geom)
+///     .unwrap();
+/// write_volume(&vol, &path, WriteOptions::default()).unwrap();
+/// let back = load_volume(&path).unwrap();
+/// assert_eq!(back.itow(), geom);
+/// assert_eq!(back.data(), vol.data());
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+///
+/// # Errors
+/// As [`volume_nrrd`] and [`write`].
+pub fn write_volume(
+    vol: &crate::volume_io::VolumeBuf,
+    path: &Path,
+    opt: WriteOptions,
+) -> Result<()> {
+    write(&volume_nrrd(vol)?, path, opt)
 }
