@@ -85,3 +85,8 @@ pub mod prelude {
     pub use crate::volume::{OwnedVolume, Volume};
     pub use crate::voxel::Voxel;
 }
+
+/// The README's examples, run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -42,7 +42,7 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
     let [w, h] = img.size;
     let c = img.channels;
     let npx = w * h;
-    let (buf, color): (Vec<u8>, image::ColorType) = match c {
+    let (buf, color): (Vec<u8>, PngColor) = match c {
         4 => {
             let mut b = Vec::with_capacity(npx * 3);
             for p in img.data.chunks_exact(4) {
@@ -51,7 +51,7 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
                     b.push(quantize(v, 0.0, 1.0));
                 }
             }
-            (b, image::ColorType::Rgb8)
+            (b, PngColor::Rgb)
         }
         3 => {
             let (lo, hi) = range.unwrap_or_else(|| finite_range(img.data.iter().copied()));
@@ -60,7 +60,7 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
                     .iter()
                     .map(|&v| quantize(v as f64, lo, hi))
                     .collect(),
-                image::ColorType::Rgb8,
+                PngColor::Rgb,
             )
         }
         _ => {
@@ -68,20 +68,48 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
             let (lo, hi) = range.unwrap_or_else(|| finite_range(first.clone()));
             (
                 first.map(|v| quantize(v as f64, lo, hi)).collect(),
-                image::ColorType::L8,
+                PngColor::Grey,
             )
         }
     };
     encode_png(&buf, w, h, color)
 }
 
-/// Encodes 8-bit pixels (`color` = L8, Rgb8 or Rgba8) as PNG bytes.
-pub fn encode_png(buf: &[u8], w: usize, h: usize, color: image::ColorType) -> Result<Vec<u8>> {
-    let mut out = Vec::new();
-    let enc = image::codecs::png::PngEncoder::new(&mut out);
-    image::ImageEncoder::write_image(enc, buf, w as u32, h as u32, color.into())
-        .map_err(|e| Error::msg(format!("PNG encoding failed: {e}")))?;
-    Ok(out)
+/// The pixel layout of 8-bit PNG data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PngColor {
+    /// One grey byte per pixel.
+    Grey,
+    /// Red, green and blue bytes per pixel.
+    Rgb,
+}
+
+/// Encodes 8-bit pixels (`w` × `h`, top row first) as PNG bytes.
+///
+/// # Errors
+/// When the encoder fails (a buffer of the wrong length), or without the `png` cargo
+/// feature.
+pub fn encode_png(buf: &[u8], w: usize, h: usize, color: PngColor) -> Result<Vec<u8>> {
+    #[cfg(feature = "png")]
+    {
+        let color = match color {
+            PngColor::Grey => image::ExtendedColorType::L8,
+            PngColor::Rgb => image::ExtendedColorType::Rgb8,
+        };
+        let mut out = Vec::new();
+        let enc = image::codecs::png::PngEncoder::new(&mut out);
+        image::ImageEncoder::write_image(enc, buf, w as u32, h as u32, color)
+            .map_err(|e| Error::msg(format!("PNG encoding failed: {e}")))?;
+        Ok(out)
+    }
+    #[cfg(not(feature = "png"))]
+    {
+        let _ = (buf, w, h, color);
+        Err(
+            Error::msg("PNG output needs rnd-std's cargo feature \"png\", which this build lacks")
+                .with_kind(crate::ErrorKind::Output),
+        )
+    }
 }
 
 /// Writes 8-bit RGB pixels (`w` × `h`, top row first) as a PNG file, atomically.
@@ -94,7 +122,7 @@ pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> 
 /// # Errors
 /// PNG encoding and write failures.
 pub fn write_png_rgb_to(out: Output, buf: &[u8], w: usize, h: usize) -> Result<()> {
-    commit_bytes(out, &encode_png(buf, w, h, image::ColorType::Rgb8)?)
+    commit_bytes(out, &encode_png(buf, w, h, PngColor::Rgb)?)
 }
 
 /// Commits encoded bytes to `out`.

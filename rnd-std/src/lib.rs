@@ -7,6 +7,7 @@
 //! ([`Error`]) names the file it concerns.
 #![deny(missing_docs)]
 
+mod codec;
 pub mod error;
 pub mod files;
 pub mod formats;
@@ -180,3 +181,8 @@ pub fn simd_level_from_env() -> rnd_core::simd::SimdLevel {
         SimdLevel::Avx512
     }
 }
+
+/// The README's examples, run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -202,7 +202,7 @@ pub(super) fn read(r: &mut dyn BufRead, path: &Path) -> Result<Loaded> {
             None => None,
         };
         let bounded = src.take(csize.unwrap_or(u64::MAX));
-        let mut z = flate2::read::ZlibDecoder::new(bounded);
+        let mut z = crate::codec::unzlib(bounded)?;
         crate::nrrd::read::read_samples(&mut z, t, endian, n)?
     } else {
         crate::nrrd::read::read_samples(src, t, endian, n)?

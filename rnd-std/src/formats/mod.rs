@@ -182,7 +182,7 @@ fn read_inner(path: &Path, threads: usize) -> Result<Loaded> {
     let (head, mut r) = peek(src)?;
     if head.starts_with(b"\x1f\x8b") {
         // Only NIfTI is stored as a whole gzip stream (`.nii.gz`, `.hdr.gz`).
-        let (zhead, mut z) = peek(Box::new(flate2::read::MultiGzDecoder::new(r)))?;
+        let (zhead, mut z) = peek(crate::codec::gunzip(r)?)?;
         return match detect(&zhead) {
             Some(f @ (Format::Nifti1 | Format::Nifti2)) => read_nifti(f, &mut z, path, true),
             _ => Err(Error::msg(

@@ -290,7 +290,7 @@ pub(super) fn read(f: Format, r: &mut dyn BufRead, path: &Path, gz: bool) -> Res
         let file = std::fs::File::open(&img).map_err(|e| Error::io(&img, "can't read", e))?;
         let (head, src) = super::peek(Box::new(file)).map_err(|e| e.with_path(&img))?;
         let mut src: Box<dyn Read> = if head.starts_with(b"\x1f\x8b") {
-            Box::new(flate2::read::MultiGzDecoder::new(src))
+            crate::codec::gunzip(src).map_err(|e| e.with_path(&img))?
         } else {
             Box::new(src)
         };

@@ -261,8 +261,8 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         return Ok(Some(Nrrd { header, data }));
     }
     let mut src: Box<dyn Read> = match enc {
-        Encoding::Gzip => Box::new(flate2::read::MultiGzDecoder::new(r)),
-        Encoding::Bzip2 => Box::new(bzip2::read::MultiBzDecoder::new(r)),
+        Encoding::Gzip => crate::codec::gunzip(r).map_err(|e| e.with_path(path))?,
+        Encoding::Bzip2 => crate::codec::bunzip2(r).map_err(|e| e.with_path(path))?,
         _ => Box::new(r),
     };
     let mut data = from_f64(parsed.scalar, &[]);
@@ -1237,9 +1237,9 @@ fn decode(h: &Parsed, raw: &[u8], skips: &Skips) -> Result<Data> {
             let mut out = Vec::new();
             let lim = nbytes as u64;
             let mut dec: Box<dyn Read> = if h.encoding == Encoding::Gzip {
-                Box::new(flate2::read::MultiGzDecoder::new(b))
+                crate::codec::gunzip(b)?
             } else {
-                Box::new(bzip2::read::MultiBzDecoder::new(b))
+                crate::codec::bunzip2(b)?
             };
             (&mut dec).take(lim).read_to_end(&mut out).map_err(|e| {
                 Error::msg(format!(

@@ -171,14 +171,10 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
                 w.write_all(out.as_bytes()).map_err(io)?;
             }
             Encoding::Gzip => {
-                let mut e = flate2::write::GzEncoder::new(w, flate2::Compression::new(6));
-                write_samples(n, opt.endian, &mut e).map_err(io)?;
-                e.finish().map_err(io)?;
+                crate::codec::gzip_to(w, |e| write_samples(n, opt.endian, e))?.map_err(io)?;
             }
             Encoding::Bzip2 => {
-                let mut e = bzip2::write::BzEncoder::new(w, bzip2::Compression::new(6));
-                write_samples(n, opt.endian, &mut e).map_err(io)?;
-                e.finish().map_err(io)?;
+                crate::codec::bzip2_to(w, |e| write_samples(n, opt.endian, e))?.map_err(io)?;
             }
             Encoding::Ascii => unreachable!("handled above"),
         },
