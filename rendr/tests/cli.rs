@@ -1669,3 +1669,61 @@ fn closed_pipe_is_not_a_panic() {
         );
     }
 }
+
+/// An image too large for memory, and bad parameters the library checks, reach the user
+/// as one line naming the option (the library names the parameter, the CLI its option).
+#[test]
+fn library_errors_name_the_option() {
+    let d = rnd_tests::tmpdir("liberrors");
+    seed_cube(&d);
+    let go = |extra: &[&str], frag: &str| {
+        let mut a = vec!["go", "@cube-cam.txt", "-i", "cube.nrrd"];
+        a.extend_from_slice(&["-k", "tent"]);
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["-o", "o.nrrd"]);
+        fails(&d, &a, frag, Some("o.nrrd"));
+    };
+    go(
+        &["-sz", "1048576", "1048576"],
+        "rendr go: -sz: a 1048576 x 1048576 image with 1 channel would need 4.0 TiB",
+    );
+    go(
+        &["-fov", "0"],
+        "rendr go: -fov: field of view must be in (0, 160)",
+    );
+    go(
+        &["-up", "6", "12", "5"],
+        "rendr go: -up: up vector (6 12 5)",
+    );
+    go(
+        &["-a1", "0"],
+        "rendr go: -a1: alpha_near1 0 must be in (0, 1]",
+    );
+    go(
+        &["-ph", "0.1", "0.6", "0.3", "-2"],
+        "rendr go: -ph: specular exponent -2",
+    );
+    fails(
+        &d,
+        &[
+            "cam",
+            "@cube-cam.txt",
+            "-fr",
+            "0",
+            "0",
+            "0",
+            "-at",
+            "0",
+            "0",
+            "0",
+        ],
+        "rendr cam: -fr: look-from equals look-at",
+        None,
+    );
+    fails(
+        &d,
+        &["sdg", "-w", "2", "-l", "0", "1", "1", "-o", "s.nrrd"],
+        "rendr sdg: -l: edge lengths must be > 0",
+        Some("s.nrrd"),
+    );
+}

@@ -1,0 +1,277 @@
+//! The embedding API (rnd-core and rnd-std as a library): every bad parameter, an image
+//! too large for memory and a volume beyond the f32 arithmetic give an error of the
+//! right kind, naming the parameter, never a panic or an abort; progress and
+//! cancellation; the builders agree with the plain constructors.
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use rnd_core::prelude::*;
+use rnd_std::parallel::{render_with, Control, Progress};
+
+fn cam() -> CameraSpec {
+    CameraSpec::looking_at([0.0, 0.0, 10.0], [0.0; 3])
+        .up([0.0, 1.0, 0.0])
+        .clip(-4.0, 4.0)
+        .size(8, 8)
+}
+
+fn ones() -> OwnedVolume<f32> {
+    OwnedVolume::from_fn([6; 3], Affine4::from_spacing([1.0; 3], [-2.5; 3]), |_| 1.0).unwrap()
+}
+
+/// Each bad parameter: the error's kind and parameter.
+#[test]
+fn bad_parameters_name_their_kind_and_parameter() {
+    let lut = Lut::new(0.0, 1.0, vec![[1.0; 4]]).unwrap();
+    let light = [Light::new([1.0; 3], [0.0, 0.0, 1.0], LightSpace::View).unwrap()];
+    type Edit = fn(&mut RenderParams);
+    let cases: &[(Edit, ErrorKind, Param)] = &[
+        (
+            |p| p.camera.fov = 170.0,
+            ErrorKind::Camera,
+            Param::CameraFov,
+        ),
+        (
+            |p| p.camera.size = [0, 8],
+            ErrorKind::Camera,
+            Param::ImageSize,
+        ),
+        (
+            |p| p.camera.up = [0.0, 0.0, 1.0],
+            ErrorKind::Camera,
+            Param::CameraUp,
+        ),
+        (
+            |p| p.camera.fr = [0.0; 3],
+            ErrorKind::Camera,
+            Param::CameraFrom,
+        ),
+        (
+            |p| p.camera.at = [f64::NAN; 3],
+            ErrorKind::Camera,
+            Param::CameraAt,
+        ),
+        (|p| p.camera.nc = 5.0, ErrorKind::Camera, Param::CameraNear),
+        (
+            |p| p.camera.fc = f64::INFINITY,
+            ErrorKind::Camera,
+            Param::CameraFar,
+        ),
+        (|p| p.plane_sep = -1.0, ErrorKind::Render, Param::PlaneSep),
+        (|p| p.plane_sep = 1e-9, ErrorKind::Render, Param::PlaneSep),
+        (|p| p.unit_step = 0.0, ErrorKind::Render, Param::UnitStep),
+        (
+            |p| p.alpha_near1 = 1.5,
+            ErrorKind::Render,
+            Param::AlphaNear1,
+        ),
+        (|p| p.phong.p = -1.0, ErrorKind::Render, Param::Phong),
+        (
+            |p| p.dcn = [f32::NAN; 3],
+            ErrorKind::Render,
+            Param::DepthCue,
+        ),
+        (|p| p.probe = Probe::Value, ErrorKind::Render, Param::Blend),
+        (
+            |p| p.unit_step = 1e-300,
+            ErrorKind::Render,
+            Param::Reference,
+        ),
+        (
+            |p| p.camera.size = [u32::MAX; 2],
+            ErrorKind::Memory,
+            Param::ImageSize,
+        ),
+    ];
+    for (i, (edit, kind, param)) in cases.iter().enumerate() {
+        let mut p = RenderParams::new(cam());
+        (p.probe, p.blend) = (Probe::Rgba, Blend::Over);
+        edit(&mut p);
+        let e = RenderSpec::new(p, Some(&lut), None, &light).unwrap_err();
+        assert_eq!((e.kind, e.param), (*kind, Some(*param)), "case {i}: {e}");
+        // Library terms, not the CLI's options.
+        assert!(!e.msg.starts_with('-'), "case {i}: {e}");
+    }
+    let mut p = RenderParams::new(cam());
+    p.probe = Probe::RgbaLit;
+    let e = RenderSpec::new(p.clone(), None, None, &light).unwrap_err();
+    assert_eq!(e.param, Some(Param::Lut), "{e}");
+    let e = RenderSpec::new(p, Some(&lut), None, &[]).unwrap_err();
+    assert_eq!(e.param, Some(Param::Lights), "{e}");
+}
+
+/// An image that fits no memory is refused before anything is allocated: by the core
+/// (which cannot know the machine) through a fallible reservation, by rnd-std against
+/// the process's memory limit first; the kind is Memory either way.
+#[test]
+fn huge_images_are_errors_not_aborts() {
+    let vol = ones();
+    let spec = RenderSpec::new(
+        RenderParams::new(cam().size(1 << 20, 1 << 20)),
+        None,
+        None,
+        &[],
+    )
+    .unwrap();
+    let e = rnd_std::parallel::render(&spec, vol.view().into(), KernelName::Tent, 2).unwrap_err();
+    assert_eq!(e.kind, rnd_std::ErrorKind::Memory, "{e}");
+    assert_eq!(e.param, Some(Param::ImageSize), "{e}");
+    assert!(e.msg.contains("1048576 x 1048576"), "{e}");
+    // The core alone: 4 TiB is more than the system gives (overcommit refuses it).
+    let e = render(&spec, vol.view().into(), KernelName::Tent).unwrap_err();
+    assert_eq!(
+        (e.kind, e.param),
+        (ErrorKind::Memory, Some(Param::ImageSize)),
+        "{e}"
+    );
+}
+
+/// The reference arithmetic compares index bounds in f32: an axis of 2^24 samples is a
+/// Volume error (the f64 arithmetic renders it).
+#[test]
+fn axes_beyond_f32_are_volume_errors() {
+    let vol =
+        OwnedVolume::from_vec(vec![0i16; 1 << 24], [1 << 24, 1, 1], Affine4::IDENTITY).unwrap();
+    let mut p = RenderParams::new(cam());
+    let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
+    let e = render(&spec, vol.view().into(), KernelName::Tent).unwrap_err();
+    assert_eq!(
+        (e.kind, e.param),
+        (ErrorKind::Volume, Some(Param::Volume)),
+        "{e}"
+    );
+    let e = rnd_std::parallel::render(&spec, vol.view().into(), KernelName::Tent, 1).unwrap_err();
+    assert_eq!(e.kind, rnd_std::ErrorKind::Core(ErrorKind::Volume), "{e}");
+    p.reference = false;
+    let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+    assert!(render(&spec, vol.view().into(), KernelName::Tent).is_ok());
+}
+
+/// Bad volumes, transfer functions and lights: kinds, no panics.
+#[test]
+fn bad_inputs_have_kinds() {
+    let e = OwnedVolume::from_vec(vec![0.0f32; 7], [2, 2, 2], Affine4::IDENTITY).unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Volume);
+    let singular = Affine4::from_spacing([1.0, 0.0, 1.0], [0.0; 3]);
+    let e = OwnedVolume::from_vec(vec![0.0f32; 8], [2, 2, 2], singular).unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Volume);
+    let e = OwnedVolume::<i16>::from_fn([usize::MAX, 2, 2], Affine4::IDENTITY, |_| 0).unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Memory);
+    assert_eq!(Txf::alpha(&[]).unwrap_err().kind, ErrorKind::Txf);
+    let e = Lut::builder(1.0, 1.0).build().unwrap_err();
+    assert_eq!((e.kind, e.param), (ErrorKind::Txf, Some(Param::LutDomain)));
+    let rgb = Txf::rgb(&[[0.0, 1.0, 1.0, 1.0]]).unwrap();
+    assert_eq!(
+        Lut::builder(0.0, 1.0)
+            .opacity(&rgb)
+            .build()
+            .unwrap_err()
+            .kind,
+        ErrorKind::Txf
+    );
+    assert_eq!(
+        Lut::builder(0.0, 1.0).entries(0).build().unwrap_err().kind,
+        ErrorKind::Txf
+    );
+    let e = Light::new([1.0; 3], [f64::NAN; 3], LightSpace::World).unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Light);
+    // rnd-std keeps the core's kind and parameter.
+    let e = rnd_std::Error::from(Lut::builder(2.0, 1.0).build().unwrap_err());
+    assert_eq!(e.kind, rnd_std::ErrorKind::Core(ErrorKind::Txf));
+    assert_eq!(e.param, Some(Param::LutDomain));
+    // A file that is not there: Io, naming it.
+    let e = rnd_std::volume_io::load_volume("no/such/volume.nrrd".as_ref()).unwrap_err();
+    assert_eq!(e.kind, rnd_std::ErrorKind::Io);
+    assert!(e.to_string().contains("no/such/volume.nrrd"), "{e}");
+}
+
+/// The builder makes the LUT the positional generator makes.
+#[test]
+fn lut_builder_is_generate() {
+    let c = Txf::hsv(&[[0.0, 0.0, 1.0, 1.0], [2.0, 0.6, 0.5, 0.8]]).unwrap();
+    let a = Txf::alpha(&[[0.0, 0.0], [1.0, 0.3], [2.0, 1.0]]).unwrap();
+    for (cs, as_) in [(false, false), (true, false), (false, true), (true, true)] {
+        let mut b = Lut::builder(-1.0, 5.0).entries(77);
+        b = if cs {
+            b.colour_stretched(&c)
+        } else {
+            b.colour(&c)
+        };
+        b = if as_ {
+            b.opacity_stretched(&a)
+        } else {
+            b.opacity(&a)
+        };
+        let g = Lut::generate(Some(&c), Some(&a), cs, as_, 77, -1.0, 5.0).unwrap();
+        assert_eq!(b.build().unwrap(), g);
+    }
+}
+
+/// Progress reaches every row once; a set flag cancels (kind Cancelled) and the same
+/// render without it gives the image `render` gives, for any thread count.
+#[test]
+fn progress_and_cancellation() {
+    let vol = ones();
+    let spec = RenderSpec::new(RenderParams::new(cam().size(16, 37)), None, None, &[]).unwrap();
+    let plain = render(&spec, vol.view().into(), KernelName::Bspln3).unwrap();
+    for threads in [1, 3] {
+        let rows = AtomicUsize::new(0);
+        let last = AtomicUsize::new(0);
+        let f = |p: Progress| {
+            assert_eq!(p.rows, 37);
+            rows.fetch_add(1, Ordering::Relaxed);
+            last.fetch_max(p.rows_done, Ordering::Relaxed);
+        };
+        let c = Control::new().on_progress(&f);
+        let img = render_with(&spec, vol.view().into(), KernelName::Bspln3, threads, &c).unwrap();
+        assert_eq!(img, plain);
+        assert_eq!(last.load(Ordering::Relaxed), 37);
+        assert_eq!(rows.load(Ordering::Relaxed), 37usize.div_ceil(4));
+        // Cancelled from the first progress report on: the render stops with an error.
+        let stop = AtomicBool::new(false);
+        let g = |_: Progress| stop.store(true, Ordering::Relaxed);
+        let c = Control::new().on_progress(&g).cancel_flag(&stop);
+        let e = render_with(&spec, vol.view().into(), KernelName::Bspln3, threads, &c).unwrap_err();
+        assert_eq!(e.kind, rnd_std::ErrorKind::Cancelled, "{e}");
+    }
+}
+
+/// Framing puts the whole volume in view: every corner projects inside the image.
+#[test]
+fn framing_shows_every_corner() {
+    let geom = Affine4::from_columns(
+        [0.9, 0.1, 0.0],
+        [0.0, 1.2, 0.3],
+        [0.2, 0.0, 2.5],
+        [4.0, -3.0, 7.0],
+    );
+    let vol = OwnedVolume::from_fn([20, 30, 12], geom, |_| 0i16).unwrap();
+    let corners = vol.view().world_corners();
+    for dir in [
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.2],
+        [1.0, 1.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ] {
+        for ortho in [false, true] {
+            let spec = CameraSpec::framing(&corners, dir)
+                .unwrap()
+                .orthographic(ortho)
+                .size(64, 48);
+            let cam = Camera::new(spec).unwrap();
+            for c in corners {
+                let (x, y) = cam.project(c);
+                assert!(
+                    (-0.5..63.5).contains(&x) && (-0.5..47.5).contains(&y),
+                    "{dir:?} {ortho}: {x} {y}"
+                );
+                // Along the view direction (−n) from the look-at point.
+                let depth =
+                    -rnd_core::math::v3::dot(rnd_core::math::v3::sub(c, spec.at), cam.n.to_array());
+                assert!(depth > spec.nc && depth < spec.fc, "{depth}");
+            }
+        }
+    }
+    assert!(CameraSpec::framing(&[], [1.0, 0.0, 0.0]).is_none());
+    assert!(CameraSpec::framing(&corners, [0.0; 3]).is_none());
+}
