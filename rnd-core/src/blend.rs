@@ -6,7 +6,15 @@ use core::str::FromStr;
 
 use crate::error::{Error, ErrorKind};
 
-/// A blend.
+/// A blend: how the values a ray probes become its pixel.
+///
+/// ```
+/// use rnd_core::blend::Blend;
+///
+/// assert_eq!("over".parse::<Blend>().unwrap(), Blend::Over);
+/// assert_eq!(Blend::Max.to_string(), "max");
+/// assert!("median".parse::<Blend>().is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Blend {
     /// Per-component maximum.

@@ -511,6 +511,17 @@ pub trait KernelTask {
 macro_rules! kernel_table {
     ($($var:ident => $ty:ident, $s:literal, $name:literal, $title:literal, $desc:literal;)*) => {
         /// Run-time kernel names (the `-k` option). Parsed case-insensitively.
+        ///
+        /// ```
+        /// use rnd_core::kernel::KernelName;
+        ///
+        /// let k: KernelName = "BSpln3".parse().unwrap();
+        /// assert_eq!(k, KernelName::Bspln3);
+        /// assert_eq!(k.support(), 4);
+        /// assert_eq!(KernelName::Tent.support(), 2);
+        /// assert!(KernelName::ALL.len() >= 6);
+        /// assert!("gauss".parse::<KernelName>().is_err());
+        /// ```
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
         pub enum KernelName {
             $(#[doc = concat!("[`", stringify!($ty), "`]: ", $desc)] $var,)*

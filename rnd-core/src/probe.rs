@@ -8,6 +8,16 @@ use crate::error::{Error, ErrorKind};
 
 /// A probe: the quantity computed at each ray sample. Ordered: a higher probe depends
 /// only on lower ones.
+///
+/// ```
+/// use rnd_core::probe::Probe;
+///
+/// let p: Probe = "gm".parse().unwrap(); // gradient magnitude
+/// assert_eq!(p, Probe::GradMag);
+/// assert_eq!(p.length(), 1);
+/// assert_eq!(Probe::RgbaLit.length(), 4);
+/// assert!(Probe::Rgba.is_colour());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Probe {
     /// View-space position (3).

@@ -105,6 +105,31 @@ impl RenderParams {
 /// A validated, immutable render description: the parameters (checked once, then
 /// read-only), the camera frame, and the constants the chosen arithmetic prepares once
 /// per render (its lights, opacity tables, f32 camera).
+///
+/// A lit `over` render: colour and opacity from a LUT, one light.
+///
+/// ```
+/// use rnd_core::prelude::*;
+///
+/// // A ball of radius 10 in a 32³ grid; opacity 0.5 inside it.
+/// let geom = Affine4::from_spacing([1.0; 3], [-15.5; 3]);
+/// let vol = OwnedVolume::from_fn([32; 3], geom, |[i, j, k]| {
+///     let r2: f32 = [i, j, k].iter().map(|&x| (x as f32 - 15.5).powi(2)).sum();
+///     if r2 < 100.0 { 1.0 } else { 0.0 }
+/// })
+/// .unwrap();
+/// let lut = Lut::new(0.0, 1.0, vec![[1.0, 1.0, 1.0, 0.0], [1.0, 0.5, 0.2, 0.5]]).unwrap();
+/// let light = Light::new([1.0; 3], [0.0, 0.0, 1.0], LightSpace::View).unwrap();
+/// let cam = CameraSpec::framing(&vol.view().world_corners(), [0.0, 0.0, 1.0]).unwrap().size(16, 16);
+/// let mut p = RenderParams::new(cam);
+/// (p.probe, p.blend, p.plane_sep) = (Probe::RgbaLit, Blend::Over, 0.5);
+/// let spec = RenderSpec::new(p, Some(&lut), None, &[light]).unwrap();
+/// assert_eq!(spec.channels(), 4);
+/// let img = render(&spec, vol.view().into(), KernelName::Tent).unwrap();
+/// let centre = &img[4 * (8 * 16 + 8)..][..4];
+/// assert!(centre[3] > 0.9 && centre[0] > centre[2]); // opaque and orange
+/// assert_eq!(&img[..4], &[0.0; 4]); // a corner ray misses the ball
+/// ```
 #[derive(Debug, Clone)]
 pub struct RenderSpec<'a> {
     pub(crate) params: RenderParams,

@@ -493,6 +493,17 @@ impl Lut {
 /// Levoy iso-contour opacity functions: a set of (isovalue v, thickness r, max opacity a)
 /// (after Levoy 1988: contour i gives a·(1 − |f − v|/(r·|∇f|)) where |f − v| < r·|∇f|,
 /// else 0; the contours combine as 1 − Π(1 − αᵢ)).
+///
+/// ```
+/// use rnd_core::txf::Levoy;
+///
+/// // One iso-contour at value 100, two value units thick per unit of gradient, opacity 0.8.
+/// let lev = Levoy::new(vec![[100.0, 2.0, 0.8]]).unwrap();
+/// assert_eq!(lev.opacity(100.0, 5.0), 0.8); // on the contour
+/// // Half way out (width r·|∇f| = 10): 0.4, up to the f32 rounding of 1 − (1 − α).
+/// assert!((lev.opacity(105.0, 5.0) - 0.4).abs() < 1e-6);
+/// assert_eq!(lev.opacity(120.0, 5.0), 0.0);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Levoy {
     items: Vec<[f32; 3]>,

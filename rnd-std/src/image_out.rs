@@ -151,6 +151,20 @@ fn finite_range(it: impl Iterator<Item = f32>) -> (f64, f64) {
 /// Writes (and consumes) `img` to `path`: PNG when the name ends in `.png`, else NRRD (raw float,
 /// sizes C W H, `content` as given). `-` writes NRRD to stdout.
 ///
+/// ```
+/// use rnd_std::image_out::{write_image, Image};
+///
+/// let dir = std::env::temp_dir().join(format!("rnd-std-img-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// // A 2 x 1 grey ramp: PNG over the range [0, 1], and the floats as NRRD.
+/// let img = Image { data: vec![0.0, 1.0], channels: 1, size: [2, 1] };
+/// write_image(img.clone(), &dir.join("ramp.png"), "ramp", Some((0.0, 1.0))).unwrap();
+/// write_image(img, &dir.join("ramp.nrrd"), "ramp", None).unwrap();
+/// let n = rnd_std::nrrd::read(&dir.join("ramp.nrrd")).unwrap();
+/// assert_eq!(n.sizes(), &[1, 2, 1]);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+///
 /// # Errors
 /// As [`Output::create`] and [`write_image_to`].
 pub fn write_image(

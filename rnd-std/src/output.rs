@@ -394,6 +394,16 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
     Output::create::<&Path>(path, &[])?.commit(fill)
 }
 
+/// An [`ErrorKind::Output`] error about `path`.
+fn out_at(path: &Path, msg: impl Into<String>) -> Error {
+    Error::at(path, msg).with_kind(ErrorKind::Output)
+}
+
+/// An [`ErrorKind::Output`] error.
+fn out_msg(msg: impl Into<String>) -> Error {
+    Error::msg(msg).with_kind(ErrorKind::Output)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -517,14 +527,4 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"x");
         let _ = std::fs::remove_dir_all(d);
     }
-}
-
-/// An [`ErrorKind::Output`] error about `path`.
-fn out_at(path: &Path, msg: impl Into<String>) -> Error {
-    Error::at(path, msg).with_kind(ErrorKind::Output)
-}
-
-/// An [`ErrorKind::Output`] error.
-fn out_msg(msg: impl Into<String>) -> Error {
-    Error::msg(msg).with_kind(ErrorKind::Output)
 }

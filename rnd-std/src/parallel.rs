@@ -90,6 +90,19 @@ impl<'c> Control<'c> {
 /// floats, row-major from the top row, C = [`RenderSpec::channels`]. The same bytes for
 /// every thread count.
 ///
+/// ```
+/// use rnd_std::prelude::*;
+///
+/// let vol = OwnedVolume::from_fn([16; 3], Affine4::IDENTITY, |[i, j, k]| (i + j + k) as i16)
+///     .unwrap();
+/// let cam = CameraSpec::framing(&vol.view().world_corners(), [1.0, 2.0, 3.0]).unwrap().size(32, 32);
+/// let spec = RenderSpec::new(RenderParams::new(cam), None, None, &[]).unwrap();
+/// let one = rnd_std::parallel::render(&spec, vol.view().into(), KernelName::Ctmr, 1).unwrap();
+/// let four = rnd_std::parallel::render(&spec, vol.view().into(), KernelName::Ctmr, 4).unwrap();
+/// assert_eq!(one, four);
+/// assert!(one.iter().any(|&v| v > 30.0));
+/// ```
+///
 /// # Errors
 /// As [`render_with`].
 pub fn render(

@@ -8,6 +8,28 @@ use super::{Data, Nrrd};
 use crate::{Error, Result};
 
 /// Reads a NRRD or plain-text array from `path` (`-` = stdin).
+///
+/// ```
+/// use rnd_std::nrrd::{self, Data, Nrrd, WriteOptions, Encoding};
+///
+/// let dir = std::env::temp_dir().join(format!("rnd-std-nrrd-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("a.nrrd");
+/// let a = Nrrd::new(vec![3, 2], Data::I16(vec![1, -2, 3, -4, 5, -6])).unwrap();
+/// let opt = WriteOptions { encoding: Encoding::Gzip, ..Default::default() };
+/// nrrd::write(&a, &path, opt).unwrap();
+/// let b = nrrd::read(&path).unwrap();
+/// assert_eq!((b.sizes(), &b.data), (&[3, 2][..], &a.data));
+/// // Plain text is read too: one row per line.
+/// std::fs::write(dir.join("t.txt"), "0 1\n2 3\n4 5\n").unwrap();
+/// assert_eq!(nrrd::read(&dir.join("t.txt")).unwrap().sizes(), &[2, 3]);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+///
+/// # Errors
+/// A missing or unreadable file ([`crate::ErrorKind::Io`]); a bad header, data that do
+/// not match it, or more memory than the process may use ([`crate::ErrorKind::Format`],
+/// [`crate::ErrorKind::Memory`]); each naming the file.
 pub fn read(path: &Path) -> Result<Nrrd> {
     read_with_threads(path, 1)
 }
