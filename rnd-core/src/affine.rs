@@ -128,6 +128,9 @@ impl Affine4 {
     /// Affine inverse `[[M⁻¹, −M⁻¹t], [0 0 0 1]]` (M the 3×3 linear part, t the translation). The bottom row of `self` is
     /// assumed to be `0 0 0 1` and is not read. Fails when M is singular (relative to its
     /// scale) or not finite.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Matrix`] when the 3×3 part is singular or a number is not finite.
     pub fn affine_inverse(&self) -> Result<Affine4> {
         if !self.is_finite() {
             return Err(Error::new(

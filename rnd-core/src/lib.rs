@@ -37,6 +37,7 @@
 //! ```
 #![no_std]
 #![deny(missing_docs)]
+#![deny(clippy::missing_errors_doc, clippy::missing_panics_doc)]
 #![deny(unsafe_code)]
 #![deny(clippy::undocumented_unsafe_blocks)]
 

@@ -45,6 +45,9 @@ pub struct Grid {
 
 impl Grid {
     /// Index-to-world: M = R·Sh·D, origin = c − M·((sz−1)/2).
+    ///
+    /// # Errors
+    /// [`ErrorKind::Sdg`] for a zero size, non-finite numbers or edge lengths ≤ 0.
     pub fn itow(&self) -> Result<Affine4> {
         if self.sizes.contains(&0) {
             return Err(Error::about(
@@ -174,6 +177,10 @@ pub fn eval(which: u32, p: [f64; 3], idx: [usize; 3], sizes: [usize; 3]) -> f64 
 }
 
 /// Samples function `which` on `grid`, returning the values (fast axis first) and ItoW.
+///
+/// # Errors
+/// [`ErrorKind::Sdg`] for an unknown function or a bad grid ([`Grid::itow`]);
+/// [`ErrorKind::Memory`] when the samples cannot be allocated.
 pub fn generate(which: u32, grid: &Grid) -> Result<(Vec<f64>, Affine4)> {
     if which as usize >= FUNCTIONS.len() {
         return Err(Error::about(

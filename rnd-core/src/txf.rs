@@ -319,6 +319,10 @@ pub struct Lut {
 impl Lut {
     /// Wraps existing entries. Fails unless vmin < vmax are finite and there is at least
     /// one entry.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] for a domain that is not finite min < max, no entries or
+    /// non-finite entries.
     pub fn new(vmin: f64, vmax: f64, rgba: Vec<[f32; 4]>) -> Result<Lut> {
         if !(vmin.is_finite() && vmax.is_finite() && vmin < vmax) {
             return Err(Error::new(
@@ -511,6 +515,9 @@ pub struct Levoy {
 
 impl Levoy {
     /// From (v, r, a) triples: all finite, r > 0, a ≥ 0, at least one.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] for non-finite numbers or thickness/opacity out of range.
     pub fn new(items: Vec<[f32; 3]>) -> Result<Levoy> {
         if items.is_empty() {
             return Err(Error::new(ErrorKind::Txf, "Levoy file has no iso-contours"));

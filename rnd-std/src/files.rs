@@ -43,11 +43,18 @@ fn rows(n: &Nrrd, c: usize) -> Vec<Vec<f64>> {
 
 /// Loads a control-point transfer function (a text array with a comment line): `#space:=` (or `#range:=`) rgb,
 /// hsv or alpha; 4 or 2 columns; rows sorted by position.
+///
+/// # Errors
+/// As [`crate::nrrd::read`] and [`txf_from_nrrd`].
 pub fn load_txf(path: &Path) -> Result<Txf> {
     txf_from_nrrd(path, nrrd::read(path)?)
 }
 
 /// [`load_txf`] on an array already read (`path` names it in errors).
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] when the array is not 2-D with 2 or 4 columns or the
+/// space is unknown; the core's [`rnd_core::ErrorKind::Txf`] for bad control points.
 pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
     let (n, c, _) = as_2d(path, n)?;
     let space = space_of(path, &n)?.ok_or_else(|| {
@@ -70,11 +77,18 @@ pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
 
 /// Loads a LUT (a NRRD or text array): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
 /// centring is given).
+///
+/// # Errors
+/// As [`crate::nrrd::read`] and [`lut_from_nrrd`].
 pub fn load_lut(path: &Path) -> Result<Lut> {
     lut_from_nrrd(path, nrrd::read(path)?)
 }
 
 /// [`load_lut`] on an array already read.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] when the array is not 4 × N or its domain is missing;
+/// the core's [`rnd_core::ErrorKind::Txf`] for a bad domain or entries.
 pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
     let s = n.sizes();
     if s.len() != 2 {
@@ -120,11 +134,18 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
 }
 
 /// Loads Levoy iso-contours (isovalue, thickness, opacity): 3 columns `v r a` per line.
+///
+/// # Errors
+/// As [`crate::nrrd::read`] and [`levoy_from_nrrd`].
 pub fn load_levoy(path: &Path) -> Result<Levoy> {
     levoy_from_nrrd(path, nrrd::read(path)?)
 }
 
 /// [`load_levoy`] on an array already read.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] when the array does not have 3 columns; the core's
+/// [`rnd_core::ErrorKind::Txf`] for bad contours.
 pub fn levoy_from_nrrd(path: &Path, n: Nrrd) -> Result<Levoy> {
     let (n, c, _) = as_2d(path, n)?;
     if c != 3 {
@@ -142,11 +163,19 @@ pub fn levoy_from_nrrd(path: &Path, n: Nrrd) -> Result<Levoy> {
 
 /// Loads lights (one per row, colour then direction then view-space flag): `#space:=rgb|hsv` (rgb when absent), 7 columns
 /// `c0 c1 c2 d0 d1 d2 vsp`.
+///
+/// # Errors
+/// As [`crate::nrrd::read`] and [`lights_from_nrrd`].
 pub fn load_lights(path: &Path) -> Result<Vec<Light>> {
     lights_from_nrrd(path, nrrd::read(path)?)
 }
 
 /// [`load_lights`] on an array already read.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] when the array does not have 7 columns, the space is
+/// unknown or there are too many lights; the core's [`rnd_core::ErrorKind::Light`]
+/// for a bad light.
 pub fn lights_from_nrrd(path: &Path, n: Nrrd) -> Result<Vec<Light>> {
     let (n, c, _) = as_2d(path, n)?;
     let space = space_of(path, &n)?.unwrap_or(TxfSpace::Rgb);

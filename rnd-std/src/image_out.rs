@@ -38,6 +38,9 @@ pub fn quantize(v: f64, min: f64, max: f64) -> u8 {
 /// image's finite range); 3 channels → RGB over one common range; 4 channels → RGBA
 /// composited over black (rgb·a), as `overrgb -b 0 0 0`. Other channel counts use the
 /// first channel.
+///
+/// # Errors
+/// As [`encode_png`].
 pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
     let [w, h] = img.size;
     let c = img.channels;
@@ -113,6 +116,9 @@ pub fn encode_png(buf: &[u8], w: usize, h: usize, color: PngColor) -> Result<Vec
 }
 
 /// Writes 8-bit RGB pixels (`w` × `h`, top row first) as a PNG file, atomically.
+///
+/// # Errors
+/// As [`crate::output::Output::create`] and [`write_png_rgb_to`].
 pub fn write_png_rgb(path: &Path, buf: &[u8], w: usize, h: usize) -> Result<()> {
     write_png_rgb_to(Output::create::<&Path>(path, &[])?, buf, w, h)
 }

@@ -6,6 +6,7 @@
 //! ([`image_out`]: NRRD or PNG) and multi-threaded rendering ([`parallel`]). Every error
 //! ([`Error`]) names the file it concerns.
 #![deny(missing_docs)]
+#![deny(clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 mod codec;
 pub mod error;

@@ -135,12 +135,20 @@ impl VolumeBuf {
 }
 
 /// Loads a volume from a file (`-` = stdin) of any format rendr reads.
+///
+/// # Errors
+/// As [`crate::formats::read`] and [`volume_from_nrrd`]: IO errors, a file in no
+/// format rendr reads or a bad one, memory beyond the process's limit; each naming the
+/// file.
 pub fn load_volume(path: &Path) -> Result<VolumeBuf> {
     load_volume_threads(path, 1)
 }
 
 /// [`load_volume`], reading large raw data with `threads` threads at once (the same
 /// volume for any count).
+///
+/// # Errors
+/// As [`load_volume`].
 pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
     let l = crate::formats::read(path, threads)?;
     let mut v = volume_from_nrrd(l.nrrd).map_err(|e| e.with_path(path))?;
@@ -150,6 +158,11 @@ pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
 }
 
 /// Builds a volume from an in-memory NRRD.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] when the array is not 3-D (after dropping a leading
+/// axis of size 1) or its geometry is unusable; [`crate::ErrorKind::Memory`] when
+/// converting the samples needs more memory than there is.
 #[allow(clippy::unnecessary_cast)] // each_data! covers f32 and f64 too
 pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
     let h = &n.header;

@@ -116,6 +116,9 @@ pub struct Nrrd {
 
 impl Nrrd {
     /// A new array with a plain header for `sizes`; fails when the sizes do not match.
+    ///
+    /// # Errors
+    /// [`crate::ErrorKind::Format`] when the sizes do not match the samples.
     pub fn new(sizes: Vec<usize>, data: Data) -> crate::Result<Nrrd> {
         let n = sizes.iter().try_fold(1usize, |a, &s| a.checked_mul(s));
         if n != Some(data.len()) {

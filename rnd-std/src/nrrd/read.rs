@@ -46,6 +46,9 @@ pub const HEADER_MAX: usize = 1 << 20;
 /// Every input is read with a limit derived from what its header says it needs (see
 /// [`data_limit_bytes`]), never to its end: a pipe, a device such as `/dev/zero` or a data
 /// file far larger than its volume costs no more than the volume.
+///
+/// # Errors
+/// As [`read`].
 pub fn read_with_threads(path: &Path, threads: usize) -> Result<Nrrd> {
     if path.as_os_str() == "-" {
         return read_from(std::io::stdin().lock(), Path::new("."), false)
@@ -580,6 +583,11 @@ fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) -> Result<()> {
 
 /// Parses a NRRD (or plain-text array) held in memory; `dir` resolves detached data
 /// files.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] for a bad header or data that do not match it;
+/// [`crate::ErrorKind::Memory`] beyond the process's memory; IO errors of detached
+/// data files.
 pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
     if !bytes.starts_with(b"NRRD") {
         if bytes.starts_with(b"\x1f\x8b") {

@@ -9,6 +9,10 @@ use super::{Data, Nrrd};
 use crate::{Error, Result};
 
 /// Parses a text array into a 2-D f64 NRRD of sizes `[columns, rows]`.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] for ragged rows, numbers that do not parse or no
+/// numbers at all.
 pub fn parse_text(text: &str) -> Result<Nrrd> {
     let mut kv = Vec::new();
     let mut vals = Vec::new();
@@ -66,6 +70,9 @@ pub fn parse_text(text: &str) -> Result<Nrrd> {
 }
 
 /// Writes a 1-D or 2-D array as text: key/values as `#key:=value`, then one row per line.
+///
+/// # Errors
+/// [`crate::ErrorKind::Io`] when writing fails.
 pub fn write_text(n: &Nrrd, w: &mut dyn Write) -> Result<()> {
     let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
     let sizes = n.sizes();

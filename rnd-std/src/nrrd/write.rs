@@ -67,6 +67,10 @@ fn content_line(c: &str) -> String {
 
 /// Serializes `n` with options `opt` into `w`. Text fields are written on one line
 /// each (control characters escaped), the content cut to [`CONTENT_MAX`] characters.
+///
+/// # Errors
+/// [`crate::ErrorKind::Io`] when writing fails; without the `gzip`/`bzip2` feature,
+/// those encodings are refused.
 pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
     let h = &n.header;
     let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
@@ -208,6 +212,9 @@ fn write_samples(n: &Nrrd, e: Endian, w: &mut dyn Write) -> std::io::Result<()> 
 
 /// Writes `n` to `path` (`-` = stdout) through a temporary file in the same directory,
 /// renamed into place only when everything was written.
+///
+/// # Errors
+/// As [`crate::output::write_atomic`] and [`write_to`].
 pub fn write(n: &Nrrd, path: &Path, opt: WriteOptions) -> Result<()> {
     crate::files::write_atomic(path, |w| write_to(n, opt, w))
 }
@@ -266,7 +273,7 @@ pub fn volume_nrrd(vol: &crate::volume_io::VolumeBuf) -> Result<Nrrd> {
 /// ```
 ///
 /// # Errors
-/// As [`volume_nrrd`] and [`write`].
+/// As [`volume_nrrd`] and [`write()`].
 pub fn write_volume(
     vol: &crate::volume_io::VolumeBuf,
     path: &Path,
