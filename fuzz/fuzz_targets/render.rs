@@ -57,14 +57,14 @@ impl ConvoTask for Traced<'_, '_> {
 fuzz_target!(|data: &[u8]| {
     let mut b = Bytes(data);
     let camera = CameraSpec {
-        fr: [b.f64(), b.f64(), b.f64()],
+        from: [b.f64(), b.f64(), b.f64()],
         at: [b.f64(), b.f64(), b.f64()],
         up: [b.f64(), b.f64(), b.f64()],
-        nc: b.f64(),
-        fc: b.f64(),
+        near: b.f64(),
+        far: b.f64(),
         fov: b.f64() * 10.0,
         size: [1 + (b.u8() % 6) as u32, 1 + (b.u8() % 6) as u32],
-        ortho: b.u8() % 2 == 0,
+        orthographic: b.u8() % 2 == 0,
     };
     let mut p = RenderParams::new(camera);
     // First the f64 engine (`-ref false`), then the reference arithmetic (the default).
@@ -85,7 +85,7 @@ fuzz_target!(|data: &[u8]| {
     let lights: Vec<Light> = Light::new([1.0, 0.9, 0.8], [b.f64(), b.f64(), b.f64()], if b.u8() % 2 == 0 { LightSpace::View } else { LightSpace::World }).into_iter().collect();
     let kernel = KernelName::ALL[(b.u8() % 7) as usize];
     // Don't let the fuzzer ask for millions of samples per ray.
-    if p.plane_sep > 0.0 && (p.camera.fc - p.camera.nc) / p.plane_sep > 2000.0 {
+    if p.plane_sep > 0.0 && (p.camera.far - p.camera.near) / p.plane_sep > 2000.0 {
         return;
     }
     let data: Vec<f32> = (0..6 * 7 * 8).map(|i| ((i * 37) % 11) as f32 / 10.0).collect();

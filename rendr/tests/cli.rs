@@ -590,14 +590,14 @@ fn seed_go_walkthrough() {
     let (_, pw) = read_floats(&d.join("pw.nrrd"));
     let (_, pi) = read_floats(&d.join("pi.nrrd"));
     let cam = rnd_core::camera::Camera::new(rnd_core::camera::CameraSpec {
-        fr: [6., 12., 5.],
+        from: [6., 12., 5.],
         at: [0.; 3],
         up: [0., 0., 1.],
-        nc: -2.56304,
-        fc: 2.56304,
+        near: -2.56304,
+        far: 2.56304,
         fov: 16.,
         size: [300, 300],
-        ortho: false,
+        orthographic: false,
     })
     .unwrap();
     let vol = rnd_std::volume_io::load_volume(&d.join("cube.nrrd")).unwrap();

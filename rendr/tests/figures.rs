@@ -84,14 +84,14 @@ fn figures_are_current_and_experiments_hold() {
         ("cam-marker-upx.png", [1.0, 0.0, 0.0]),
     ] {
         let cam = Camera::new(CameraSpec {
-            fr: [0., -5., 0.],
+            from: [0., -5., 0.],
             at: [0.; 3],
             up,
-            nc: -1.5,
-            fc: 1.5,
+            near: -1.5,
+            far: 1.5,
             fov: 20.,
             size: [200, 200],
-            ortho: false,
+            orthographic: false,
         })
         .unwrap();
         let img = f(file);
@@ -148,14 +148,14 @@ fn figures_are_current_and_experiments_hold() {
     assert!(mean < 0.01, "mean difference {mean}");
     // 4. Specular highlight where N = H = normalize(L + V), on the radius-0.6 sphere.
     let cam = Camera::new(CameraSpec {
-        fr: [0., 0., 4.],
+        from: [0., 0., 4.],
         at: [0.; 3],
         up: [0., 1., 0.],
-        nc: -1.,
-        fc: 1.,
+        near: -1.,
+        far: 1.,
         fov: 30.,
         size: [150, 150],
-        ortho: true,
+        orthographic: true,
     })
     .unwrap();
     let l = rnd_core::math::v3::normalize([1.0, 0.5, 1.0]);

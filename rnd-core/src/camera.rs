@@ -8,26 +8,29 @@ use crate::math;
 /// The f64 3-vector of the camera frame (re-exported from `glam`).
 pub use glam::DVec3;
 
-/// What the user gives (`-fr -at -up -nc -fc -fov -sz -ortho`).
+/// What a camera is made from: where it is, where it looks, its clipping planes, field
+/// of view, image size and projection (in `rendr`: `-fr -at -up -nc -fc -fov -sz
+/// -ortho`). Start from [`CameraSpec::looking_at`] or [`CameraSpec::framing`] and change
+/// what differs; [`Camera::new`] checks it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraSpec {
     /// Look-from point (world).
-    pub fr: [f64; 3],
+    pub from: [f64; 3],
     /// Look-at point (world).
     pub at: [f64; 3],
     /// Up vector (world); need not be unit length or perpendicular to the view direction.
     pub up: [f64; 3],
     /// Near clipping plane, distance along the view direction relative to the look-at
     /// (negative = between look-at and eye).
-    pub nc: f64,
+    pub near: f64,
     /// Far clipping plane, relative to the look-at.
-    pub fc: f64,
+    pub far: f64,
     /// Full vertical field of view, degrees.
     pub fov: f64,
     /// Image size: horizontal, vertical samples.
     pub size: [u32; 2],
     /// Orthographic instead of perspective projection.
-    pub ortho: bool,
+    pub orthographic: bool,
 }
 
 impl CameraSpec {
@@ -57,14 +60,14 @@ impl CameraSpec {
             [0.0, 0.0, 1.0]
         };
         CameraSpec {
-            fr: from,
+            from,
             at,
             up,
-            nc: -d / 2.0,
-            fc: d / 2.0,
+            near: -d / 2.0,
+            far: d / 2.0,
             fov: 20.0,
             size: [256, 256],
-            ortho: false,
+            orthographic: false,
         }
     }
 
@@ -81,7 +84,7 @@ impl CameraSpec {
     /// let box_ = [[0.0, 0.0, 0.0], [10.0, 10.0, 10.0]];
     /// let spec = CameraSpec::framing(&box_, [0.0, 0.0, 1.0]).unwrap().orthographic(true);
     /// assert_eq!(spec.at, [5.0, 5.0, 5.0]);
-    /// assert!(spec.fr[2] > 10.0 && spec.nc < 0.0 && spec.fc > 0.0);
+    /// assert!(spec.from[2] > 10.0 && spec.near < 0.0 && spec.far > 0.0);
     /// ```
     pub fn framing(corners: &[[f64; 3]], towards_eye: [f64; 3]) -> Option<CameraSpec> {
         let first = *corners.first()?;
@@ -107,8 +110,8 @@ impl CameraSpec {
         let d = 1.05 * radius / math::sin(fov.to_radians() / 2.0);
         let from: [f64; 3] = core::array::from_fn(|a| centre[a] + towards_eye[a] / len * d);
         let mut spec = CameraSpec::looking_at(from, centre);
-        spec.nc = -radius;
-        spec.fc = radius;
+        spec.near = -radius;
+        spec.far = radius;
         Some(spec)
     }
 
@@ -125,8 +128,8 @@ impl CameraSpec {
     /// Sets the near and far clipping planes, as distances along the view direction
     /// from the look-at point (negative: towards the eye).
     pub fn clip(mut self, near: f64, far: f64) -> CameraSpec {
-        self.nc = near;
-        self.fc = far;
+        self.near = near;
+        self.far = far;
         self
     }
     /// Sets the image size in pixels.
@@ -136,7 +139,7 @@ impl CameraSpec {
     }
     /// Chooses an orthographic (`true`) or perspective projection.
     pub fn orthographic(mut self, ortho: bool) -> CameraSpec {
-        self.ortho = ortho;
+        self.orthographic = ortho;
         self
     }
 }
@@ -184,11 +187,11 @@ impl Camera {
     /// of range, or leaves no view (look-from = look-at, up parallel to the view).
     pub fn new(spec: CameraSpec) -> Result<Camera> {
         use alloc::format;
-        let fr = DVec3::from_array(spec.fr);
+        let fr = DVec3::from_array(spec.from);
         let at = DVec3::from_array(spec.at);
         let up = DVec3::from_array(spec.up);
         for (param, x) in [
-            (Param::CameraFrom, spec.fr),
+            (Param::CameraFrom, spec.from),
             (Param::CameraAt, spec.at),
             (Param::CameraUp, spec.up),
         ] {
@@ -206,8 +209,8 @@ impl Camera {
             }
         }
         for (param, x) in [
-            (Param::CameraNear, spec.nc),
-            (Param::CameraFar, spec.fc),
+            (Param::CameraNear, spec.near),
+            (Param::CameraFar, spec.far),
             (Param::CameraFov, spec.fov),
         ] {
             if !x.is_finite() {
@@ -235,12 +238,12 @@ impl Camera {
                 ),
             ));
         }
-        if spec.nc >= spec.fc {
+        if spec.near >= spec.far {
             return Err(cam_err(
                 Param::CameraNear,
                 format!(
                     "near clip {} must be less than far clip {}",
-                    spec.nc, spec.fc
+                    spec.near, spec.far
                 ),
             ));
         }
@@ -251,7 +254,7 @@ impl Camera {
                 Param::CameraFrom,
                 format!(
                     "look-from equals look-at ({} {} {})",
-                    spec.fr[0], spec.fr[1], spec.fr[2]
+                    spec.from[0], spec.from[1], spec.from[2]
                 ),
             ));
         }
@@ -269,14 +272,14 @@ impl Camera {
         }
         let u = uc / ul;
         let v = n.cross(u);
-        let ncv = d + spec.nc;
-        let fcv = d + spec.fc;
-        if !spec.ortho && ncv <= 0.0 {
+        let ncv = d + spec.near;
+        let fcv = d + spec.far;
+        if !spec.orthographic && ncv <= 0.0 {
             return Err(cam_err(
                 Param::CameraNear,
                 format!(
                     "near plane {} puts it at or behind the eye (look-from is {} from look-at)",
-                    crate::error::Num(spec.nc),
+                    crate::error::Num(spec.near),
                     crate::error::Num(d)
                 ),
             ));
@@ -292,7 +295,7 @@ impl Camera {
         let hght = 2.0 * d * math::tan(spec.fov.to_radians() / 2.0);
         let ar = spec.size[0] as f64 / spec.size[1] as f64;
         let wdth = ar * hght;
-        let vtow = Affine4::from_columns(u.to_array(), v.to_array(), n.to_array(), spec.fr);
+        let vtow = Affine4::from_columns(u.to_array(), v.to_array(), n.to_array(), spec.from);
         let wtov = Affine4::from_rows([
             u.x,
             u.y,
@@ -340,7 +343,7 @@ impl Camera {
     /// inverse of the ray set-up: pixel centres are at integer coordinates).
     pub fn project(&self, p: [f64; 3]) -> (f64, f64) {
         let v = self.wtov.point(p);
-        let (u, w) = if self.spec.ortho {
+        let (u, w) = if self.spec.orthographic {
             (v[0], v[1])
         } else {
             (v[0] * self.d / -v[2], v[1] * self.d / -v[2])
@@ -357,7 +360,7 @@ impl Camera {
     #[inline]
     pub fn ray(&self, hi: u32, vi: u32, plane_sep: f64) -> ([f64; 3], [f64; 3]) {
         let (us, vs) = self.image_plane(hi, vi);
-        if self.spec.ortho {
+        if self.spec.orthographic {
             ([us, vs, -self.ncv], [0.0, 0.0, -plane_sep])
         } else {
             let s = self.ncv / self.d;
@@ -375,14 +378,14 @@ mod tests {
 
     fn spec() -> CameraSpec {
         CameraSpec {
-            fr: [6., 12., 5.],
+            from: [6., 12., 5.],
             at: [0., 0., 0.],
             up: [0., 0., 1.],
-            nc: -2.56304,
-            fc: 2.56304,
+            near: -2.56304,
+            far: 2.56304,
             fov: 16.,
             size: [300, 300],
-            ortho: false,
+            orthographic: false,
         }
     }
 
@@ -401,7 +404,7 @@ mod tests {
     fn project_inverts_ray() {
         for ortho in [false, true] {
             let mut sp = spec();
-            sp.ortho = ortho;
+            sp.orthographic = ortho;
             sp.size = [31, 17];
             let c = Camera::new(sp).unwrap();
             for (hi, vi) in [(0, 0), (30, 16), (7, 11)] {
@@ -420,7 +423,7 @@ mod tests {
     #[test]
     fn bad_cameras() {
         let mut s = spec();
-        s.at = s.fr;
+        s.at = s.from;
         assert_eq!(Camera::new(s).unwrap_err().kind, ErrorKind::Camera);
         let mut s = spec();
         s.up = [6., 12., 5.];

@@ -35,15 +35,15 @@ pub enum ErrorKind {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Param {
-    /// [`crate::camera::CameraSpec::fr`], the look-from point.
+    /// [`crate::camera::CameraSpec::from`], the look-from point.
     CameraFrom,
     /// [`crate::camera::CameraSpec::at`], the look-at point.
     CameraAt,
     /// [`crate::camera::CameraSpec::up`], the up vector.
     CameraUp,
-    /// [`crate::camera::CameraSpec::nc`], the near clipping plane.
+    /// [`crate::camera::CameraSpec::near`], the near clipping plane.
     CameraNear,
-    /// [`crate::camera::CameraSpec::fc`], the far clipping plane.
+    /// [`crate::camera::CameraSpec::far`], the far clipping plane.
     CameraFar,
     /// [`crate::camera::CameraSpec::fov`], the field of view.
     CameraFov,

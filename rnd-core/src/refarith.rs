@@ -114,14 +114,14 @@ pub struct RefRay {
 impl RefCamera {
     /// The frame for `spec` (already validated by [`crate::camera::Camera::new`]).
     pub fn new(spec: &CameraSpec) -> Self {
-        let (fr, at, up) = (f32x3(spec.fr), f32x3(spec.at), f32x3(spec.up));
+        let (fr, at, up) = (f32x3(spec.from), f32x3(spec.at), f32x3(spec.up));
         let diff = [fr[0] - at[0], fr[1] - at[1], fr[2] - at[2]];
         let d = math::sqrtf(dot(diff, diff));
         let n = scale(1.0 / d, diff);
         let u = normalize(cross(up, n));
         let v = cross(n, u);
-        let ncv = d + spec.nc as f32;
-        let fcv = d + spec.fc as f32;
+        let ncv = d + spec.near as f32;
+        let fcv = d + spec.far as f32;
         // tan rounded once from f64 (the C library's tanf agrees for the usual angles).
         let half = core::f32::consts::PI * spec.fov as f32 / 360.0;
         let hght = 2.0 * d * math::tan(half as f64) as f32;
@@ -137,7 +137,7 @@ impl RefCamera {
             hght,
             wdth: ar * hght,
             size: spec.size,
-            ortho: spec.ortho,
+            ortho: spec.orthographic,
         }
     }
 
@@ -651,14 +651,14 @@ mod tests {
     #[test]
     fn centre_ray_runs_along_minus_n() {
         let spec = CameraSpec {
-            fr: [6., 12., 5.],
+            from: [6., 12., 5.],
             at: [0., 0., 0.],
             up: [0., 0., 1.],
-            nc: -2.3,
-            fc: 2.3,
+            near: -2.3,
+            far: 2.3,
             fov: 14.,
             size: [3, 3],
-            ortho: false,
+            orthographic: false,
         };
         let c = RefCamera::new(&spec);
         let r = c.ray(1, 1, 0.03, 0.03);
@@ -827,14 +827,14 @@ mod lane_tests {
             let at = itow.point([sz[0] as f64 / 2.0, sz[1] as f64 / 2.0, sz[2] as f64 / 2.0]);
             let fr = [at[0] + 20.0 + c(10.0), at[1] + c(30.0), at[2] + c(30.0)];
             let spec = CameraSpec {
-                fr,
+                from: fr,
                 at: [at[0] + c(4.0), at[1] + c(4.0), at[2] + c(4.0)],
                 up: [0.0, 0.0, 1.0],
-                nc: -15.0 - c(10.0).abs(),
-                fc: 15.0 + c(10.0).abs(),
+                near: -15.0 - c(10.0).abs(),
+                far: 15.0 + c(10.0).abs(),
                 fov: 20.0 + c(30.0),
                 size: [9, 7],
-                ortho: c(1.0) > 0.0,
+                orthographic: c(1.0) > 0.0,
             };
             let cam = RefCamera::new(&spec);
             let sep = [0.013f32, 0.1, 0.37, 1.0][(rng.next() * 4.0) as usize];

@@ -276,7 +276,7 @@ impl<'a> RenderSpec<'a> {
                         "the camera (look-from {:?}, look-at {:?}) is beyond the reference's \
                          f32 arithmetic (there: eye distance {}, near plane {}, far plane {}); \
                          use the f64 arithmetic",
-                        params.camera.fr, params.camera.at, ref_cam.d, ref_cam.ncv, ref_cam.fcv
+                        params.camera.from, params.camera.at, ref_cam.d, ref_cam.ncv, ref_cam.fcv
                     ),
                 ));
             }
@@ -348,7 +348,7 @@ impl<'a> RenderSpec<'a> {
         }
         // Orthographic rays all step the same length, so the corrected opacity of each
         // LUT entry can be computed once (not for Levoy, which scales alpha per sample).
-        if let (Some(lut), None, true) = (lut, levoy, spec.camera.spec.ortho) {
+        if let (Some(lut), None, true) = (lut, levoy, spec.camera.spec.orthographic) {
             if lut.entries().len() <= 1 << 16 {
                 let entries = lut.entries().iter();
                 spec.alpha_table = Some(if spec.params.reference {

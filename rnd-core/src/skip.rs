@@ -706,14 +706,14 @@ mod tests {
         let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-8.0; 3]);
         let vol = Volume::new(&data, sizes, itow).unwrap();
         let mut p = RenderParams::new(CameraSpec {
-            fr: [30.0, 4.0, 2.0],
+            from: [30.0, 4.0, 2.0],
             at: [0.0; 3],
             up: [0.0, 0.0, 1.0],
-            nc: -12.0,
-            fc: 12.0,
+            near: -12.0,
+            far: 12.0,
             fov: 30.0,
             size: [8, 6],
-            ortho: true,
+            orthographic: true,
         });
         p.plane_sep = 0.25;
         p.blend = Blend::Max;

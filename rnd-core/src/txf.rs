@@ -210,7 +210,7 @@ impl Txf {
     }
 
     /// Evaluates at `x`: clamped ends, piecewise linear between points; HSV interpolated
-    /// (hue along the shorter arc, D7) and returned converted to RGB. For alpha, only
+    /// (hue along the shorter arc of the colour circle) and returned converted to RGB. For alpha, only
     /// element 0 is meaningful.
     pub fn eval(&self, x: f64) -> [f64; 3] {
         let raw = self.eval_raw(x);
@@ -244,7 +244,7 @@ impl Txf {
         if self.space == TxfSpace::Hsv {
             let (h0, mut h1) = (a[0], b[0]);
             let d = h1 - h0;
-            // Shorter arc; exactly 0.5 apart goes toward increasing hue (D7).
+            // Shorter arc; exactly 0.5 apart goes toward increasing hue.
             if d > 0.5 {
                 h1 -= 1.0;
             } else if d <= -0.5 {

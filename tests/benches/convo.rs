@@ -94,14 +94,14 @@ mod rays {
     fn run_rays(b: Bencher, vol: AnyVolume<'_>, kernel: KernelName, probe: Probe) {
         let n = N as f64;
         let cam = CameraSpec {
-            fr: [n / 2.0, n / 2.0, 2.0 * n],
+            from: [n / 2.0, n / 2.0, 2.0 * n],
             at: [n / 2.0, n / 2.0, n / 2.0],
             up: [0.0, 1.0, 0.0],
-            nc: -n,
-            fc: n,
+            near: -n,
+            far: n,
             fov: 10.0,
             size: [32, 32],
-            ortho: true,
+            orthographic: true,
         };
         let mut p = RenderParams::new(cam);
         p.plane_sep = 0.5;

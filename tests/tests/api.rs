@@ -42,7 +42,7 @@ fn bad_parameters_name_their_kind_and_parameter() {
             Param::CameraUp,
         ),
         (
-            |p| p.camera.fr = [0.0; 3],
+            |p| p.camera.from = [0.0; 3],
             ErrorKind::Camera,
             Param::CameraFrom,
         ),
@@ -51,9 +51,9 @@ fn bad_parameters_name_their_kind_and_parameter() {
             ErrorKind::Camera,
             Param::CameraAt,
         ),
-        (|p| p.camera.nc = 5.0, ErrorKind::Camera, Param::CameraNear),
+        (|p| p.camera.near = 5.0, ErrorKind::Camera, Param::CameraNear),
         (
-            |p| p.camera.fc = f64::INFINITY,
+            |p| p.camera.far = f64::INFINITY,
             ErrorKind::Camera,
             Param::CameraFar,
         ),
@@ -268,7 +268,7 @@ fn framing_shows_every_corner() {
                 // Along the view direction (−n) from the look-at point.
                 let depth =
                     -rnd_core::math::v3::dot(rnd_core::math::v3::sub(c, spec.at), cam.n.to_array());
-                assert!(depth > spec.nc && depth < spec.fc, "{depth}");
+                assert!(depth > spec.near && depth < spec.far, "{depth}");
             }
         }
     }

@@ -18,14 +18,14 @@ fn cube_params() -> RenderParams {
     //   -sz 320 280 -us 0.03 -s 0.03 -k bspln3 -p rgbalit -b over -nt 2 -lut lut.nrrd
     //   -lit rgb.txt -o cube-rgb.nrrd
     let cam = CameraSpec {
-        fr: [6., 12., 5.],
+        from: [6., 12., 5.],
         at: [0., 0., 0.],
         up: [0., 0., 1.],
-        nc: -2.3,
-        fc: 2.3,
+        near: -2.3,
+        far: 2.3,
         fov: 14.,
         size: [320, 280],
-        ortho: false,
+        orthographic: false,
     };
     let mut p = RenderParams::new(cam);
     p.unit_step = 0.03;
@@ -393,7 +393,7 @@ fn reference_arithmetic_agrees_with_f64_engine() {
     p.time = false;
     let mut compared = 0;
     for ortho in [false, true] {
-        p.camera.ortho = ortho;
+        p.camera.orthographic = ortho;
         for k in KernelName::ALL {
             for probe in Probe::ALL {
                 for blend in Blend::ALL {

@@ -39,14 +39,14 @@ fn cam(
     ortho: bool,
 ) -> CameraSpec {
     CameraSpec {
-        fr,
+        from: fr,
         at,
         up,
-        nc,
-        fc,
+        near: nc,
+        far: fc,
         fov: 30.0,
         size,
-        ortho,
+        orthographic: ortho,
     }
 }
 
@@ -749,13 +749,13 @@ fn far_camera_terminates_and_sample_count_is_bounded() {
     let e = RenderSpec::new(p.clone(), None, None, &[]).unwrap_err();
     assert!(e.msg.contains("samples per ray"), "{e}");
     // At 1e17 the near and far planes themselves collapse: refused.
-    p.camera.fr = [0.0, 0.0, 1e17];
+    p.camera.from = [0.0, 0.0, 1e17];
     p.plane_sep = 0.01;
     let e = RenderSpec::new(p.clone(), None, None, &[]).unwrap_err();
     assert!(e.msg.contains("coincide"), "{e}");
     // Fuzz regression (reference arithmetic): at 5e15 the planes are distinct in f64 but not in f32,
     // where the depth cue divided 0 by 0. The reference arithmetic refuses the camera.
-    p.camera.fr = [0.0, 0.0, 5e15];
+    p.camera.from = [0.0, 0.0, 5e15];
     p.dcn = [0.6; 3];
     p.dcf = [0.0; 3];
     assert!(RenderSpec::new(p.clone(), None, None, &[]).is_ok());

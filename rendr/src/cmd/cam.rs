@@ -30,14 +30,14 @@ pub static SPEC: CmdSpec = CmdSpec {
 pub fn camera_spec(a: &Args) -> Result<CameraSpec, ArgError> {
     let sz = a.get_arr::<u32, 2>("sz")?;
     Ok(CameraSpec {
-        fr: a.get_arr("fr")?,
+        from: a.get_arr("fr")?,
         at: a.get_arr("at")?,
         up: a.get_arr("up")?,
-        nc: a.get("nc")?,
-        fc: a.get("fc")?,
+        near: a.get("nc")?,
+        far: a.get("fc")?,
         fov: a.get("fov")?,
         size: sz,
-        ortho: a.flag("ortho"),
+        orthographic: a.flag("ortho"),
     })
 }
 
@@ -47,14 +47,14 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let c = Camera::new(spec)?;
     let s = &c.spec;
     outln!("rendr cam: ----- input parameters");
-    outln!("{} = fr", list6(&s.fr));
+    outln!("{} = fr", list6(&s.from));
     outln!("{} = at", list6(&s.at));
     outln!("{} = up", list6(&s.up));
-    outln!("{} = nc", g6(s.nc));
-    outln!("{} = fc", g6(s.fc));
+    outln!("{} = nc", g6(s.near));
+    outln!("{} = fc", g6(s.far));
     outln!("{} = FOV", g6(s.fov));
     outln!("{} {} = size", s.size[0], s.size[1]);
-    outln!("{} = ortho", u8::from(s.ortho));
+    outln!("{} = ortho", u8::from(s.orthographic));
     outln!("rendr cam: ----- output parameters");
     outln!("{} = ar", g6(c.ar));
     outln!("{} = |fr-at|=d", g6(c.d));
