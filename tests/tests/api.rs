@@ -51,7 +51,11 @@ fn bad_parameters_name_their_kind_and_parameter() {
             ErrorKind::Camera,
             Param::CameraAt,
         ),
-        (|p| p.camera.near = 5.0, ErrorKind::Camera, Param::CameraNear),
+        (
+            |p| p.camera.near = 5.0,
+            ErrorKind::Camera,
+            Param::CameraNear,
+        ),
         (
             |p| p.camera.far = f64::INFINITY,
             ErrorKind::Camera,
