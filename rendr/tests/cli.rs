@@ -1727,3 +1727,67 @@ fn library_errors_name_the_option() {
         Some("s.nrrd"),
     );
 }
+
+/// `ceval -h true`: the Hessian and the principal curvatures, after the value and
+/// gradient lines. On f = |x|² (sampled exactly), Catmull-Rom reproduces the quadratic:
+/// Hessian 2I everywhere, and the isosurface through p is the sphere of radius |p|,
+/// whose curvatures with the normal −∇f/|∇f| are both −1/|p|.
+#[test]
+fn ceval_hessian_and_curvature() {
+    use rnd_std::nrrd::{Data, Nrrd};
+    let d = rnd_tests::tmpdir("cevalh");
+    let n = 12;
+    let c = (n as f32 - 1.0) / 2.0;
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, (i / n) % n, i / (n * n)];
+            p.iter().map(|&x| (x as f32 - c).powi(2)).sum()
+        })
+        .collect();
+    let mut vol = Nrrd::new(vec![n, n, n], Data::F32(data)).unwrap();
+    vol.header.space = Some("3D-right-handed".into());
+    vol.header.space_directions = Some(
+        (0..3)
+            .map(|a| Some((0..3).map(|b| f64::from(u8::from(a == b))).collect()))
+            .collect(),
+    );
+    vol.header.space_origin = Some(vec![-c as f64; 3]);
+    rnd_std::nrrd::write(&vol, &d.join("sq.nrrd"), Default::default()).unwrap();
+    // Off the sample planes on every axis: Catmull-Rom's second derivative jumps at
+    // whole index positions.
+    let p = [3.0, 0.3, -1.0];
+    let s = ok(
+        &d,
+        &[
+            "ceval", "-i", "sq.nrrd", "-k", "ctmr", "-w", "3", "0.3", "-1", "-g", "true", "-h",
+            "true",
+        ],
+    );
+    let lines: Vec<&str> = s.lines().collect();
+    assert_eq!(lines.len(), 4, "{s}");
+    let nums = |l: &str, tag: &str| -> Vec<f64> {
+        let (v, t) = l.rsplit_once(' ').unwrap();
+        assert_eq!(t, tag, "{l}");
+        v.split_whitespace().map(|x| x.parse().unwrap()).collect()
+    };
+    assert!(lines[1].ends_with("=gradient"), "{s}");
+    let h = nums(lines[2], "=hessian");
+    let want = [2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0];
+    for (a, b) in h.iter().zip(want) {
+        assert!((a - b).abs() < 1e-6, "{s}");
+    }
+    let k = nums(lines[3], "=kappa");
+    let r = p.iter().map(|x: &f64| x * x).sum::<f64>().sqrt();
+    assert_eq!(k.len(), 2);
+    for x in k {
+        assert!((x + 1.0 / r).abs() < 1e-6, "{s}: want {}", -1.0 / r);
+    }
+    // Outside: said so on every line.
+    let s = ok(
+        &d,
+        &[
+            "ceval", "-i", "sq.nrrd", "-k", "ctmr", "-w", "5.4", "0", "0", "-h", "true",
+        ],
+    );
+    assert!(s.ends_with("outside =hessian\noutside =kappa\n"), "{s}");
+}

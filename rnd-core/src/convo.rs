@@ -34,6 +34,63 @@ pub struct ConvoSample {
     pub grad_w: [f32; 3],
 }
 
+/// Value and world-space first and second derivatives at a point: see
+/// [`Convo::second_order_world`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SecondOrder {
+    /// Reconstructed value.
+    pub value: f64,
+    /// Gradient (per world unit).
+    pub gradient: [f64; 3],
+    /// Hessian (per world unit squared), symmetric.
+    pub hessian: [[f64; 3]; 3],
+}
+
+impl SecondOrder {
+    /// The principal curvatures κ1 ≥ κ2 of the isosurface through the point, with
+    /// Teem's conventions: the normal is n = −∇f/|∇f|, P = I − n nᵀ projects onto the
+    /// tangent plane, G = −P H P / |∇f|, and with T = trace G and F its Frobenius norm,
+    /// κ = (T ± √(2F² − T²)) / 2 (the root taken as 0 where rounding makes it negative).
+    /// Both are 0 where |∇f| ≤ `min_grad` (the isosurface is not defined there).
+    ///
+    /// ```
+    /// use rnd_core::convo::SecondOrder;
+    ///
+    /// // f = x² + y² + z² at (3, 0, 0): the sphere of radius 3, normal pointing inwards
+    /// // (−∇f), so both curvatures are −1/3 with this sign convention.
+    /// let s = SecondOrder {
+    ///     value: 9.0,
+    ///     gradient: [6.0, 0.0, 0.0],
+    ///     hessian: [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]],
+    /// };
+    /// let [k1, k2] = s.curvatures(0.0);
+    /// assert!((k1 + 1.0 / 3.0).abs() < 1e-12 && (k2 + 1.0 / 3.0).abs() < 1e-12);
+    /// ```
+    pub fn curvatures(&self, min_grad: f64) -> [f64; 2] {
+        let g = self.gradient;
+        let len = crate::math::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        if !(len > min_grad) {
+            return [0.0, 0.0];
+        }
+        let n = [-g[0] / len, -g[1] / len, -g[2] / len];
+        let p: [[f64; 3]; 3] = core::array::from_fn(|r| {
+            core::array::from_fn(|c| f64::from(u8::from(r == c)) - n[r] * n[c])
+        });
+        let mul = |a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]| -> [[f64; 3]; 3] {
+            core::array::from_fn(|r| {
+                core::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum())
+            })
+        };
+        let php = mul(&p, &mul(&self.hessian, &p));
+        let gt: [[f64; 3]; 3] =
+            core::array::from_fn(|r| core::array::from_fn(|c| -php[r][c] / len));
+        let t = gt[0][0] + gt[1][1] + gt[2][2];
+        let f2: f64 = gt.iter().flatten().map(|x| x * x).sum();
+        let d = crate::math::sqrt((2.0 * f2 - t * t).max(0.0));
+        [0.5 * (t + d), 0.5 * (t - d)]
+    }
+}
+
 /// Per-thread convolution state over one volume with kernel `K` of support `S`.
 #[derive(Debug, Clone)]
 pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
@@ -79,6 +136,65 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     /// The volume.
     pub fn volume(&self) -> &Volume<'v, V> {
         &self.vol
+    }
+
+    /// Value, gradient and Hessian at world point `pos_w`, summed in f64 with the
+    /// kernel's f64 weights and its first and second derivatives (for probing; the
+    /// renderer's sums are f32). The world-space derivatives come through WtoI's linear
+    /// part M: ∇_w f = Mᵀ ∇_i f and H_w = Mᵀ H_i M, so sheared and rotated grids are
+    /// exact. `None` where the inside rule fails (or the point is not finite).
+    pub fn second_order_world(&self, pos_w: [f64; 3]) -> Option<SecondOrder> {
+        let pos_i = self.vol.wtoi().point(pos_w);
+        let (n, alpha) = self.place3(pos_i)?;
+        let tab = |a: usize, f: fn(f64) -> f64| -> [f64; S] {
+            core::array::from_fn(|i| f(alpha[a] - (K::LO + i as i32) as f64))
+        };
+        let w: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::k::<f64>));
+        let d: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d1::<f64>));
+        let dd: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d2::<f64>));
+        let sz = self.vol.sizes();
+        let data = self.vol.data();
+        let (mut v, mut g, mut h) = (0.0f64, [0.0f64; 3], [[0.0f64; 3]; 3]);
+        for k in 0..S {
+            for j in 0..S {
+                let row =
+                    (n[0] as usize) + sz[0] * ((n[1] as usize + j) + sz[1] * (n[2] as usize + k));
+                for i in 0..S {
+                    let x = data[row + i].to_f32() as f64;
+                    let (w0, w1, w2) = (w[0][i], w[1][j], w[2][k]);
+                    let (d0, d1, d2) = (d[0][i], d[1][j], d[2][k]);
+                    v += x * w0 * w1 * w2;
+                    g[0] += x * d0 * w1 * w2;
+                    g[1] += x * w0 * d1 * w2;
+                    g[2] += x * w0 * w1 * d2;
+                    h[0][0] += x * dd[0][i] * w1 * w2;
+                    h[1][1] += x * w0 * dd[1][j] * w2;
+                    h[2][2] += x * w0 * w1 * dd[2][k];
+                    h[0][1] += x * d0 * d1 * w2;
+                    h[0][2] += x * d0 * w1 * d2;
+                    h[1][2] += x * w0 * d1 * d2;
+                }
+            }
+        }
+        (h[1][0], h[2][0], h[2][1]) = (h[0][1], h[0][2], h[1][2]);
+        let m = self.vol.wtoi();
+        let gradient = core::array::from_fn(|c| (0..3).map(|a| g[a] * m.at(a, c)).sum());
+        let hessian = core::array::from_fn(|r| {
+            core::array::from_fn(|c| {
+                let mut sum = 0.0;
+                for a in 0..3 {
+                    for b in 0..3 {
+                        sum += m.at(a, r) * h[a][b] * m.at(b, c);
+                    }
+                }
+                sum
+            })
+        });
+        Some(SecondOrder {
+            value: v,
+            gradient,
+            hessian,
+        })
     }
 
     /// Convolution at world point `pos_w`; the gradient only when `grad` is true.

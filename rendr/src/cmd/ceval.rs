@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use rnd_core::convo::{Convo, ConvoSample};
+use rnd_core::convo::{Convo, ConvoSample, SecondOrder};
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, ConvoTask};
 use rnd_core::volume::Volume;
@@ -14,9 +14,10 @@ use crate::fmt::{g9, list9};
 pub static SPEC: CmdSpec = CmdSpec {
     name: "ceval",
     about: "evaluate convolution at a world-space point",
-    info: "Reconstructs the volume's value (and with -g true its world-space gradient) at \
-           one world point with the given kernel. Points where the kernel support leaves \
-           the volume are reported as outside.",
+    info: "Reconstructs the volume's value (with -g true also its world-space gradient, \
+           with -h true its world-space Hessian and the principal curvatures of the \
+           isosurface) at one world point with the given kernel. Points where the kernel \
+           support leaves the volume are reported as outside.",
     response_files: false,
     opts: &[
         req(
@@ -43,6 +44,15 @@ pub static SPEC: CmdSpec = CmdSpec {
             "bool",
             "also compute the world-space gradient",
         ),
+        def(
+            &["h"],
+            1,
+            "false",
+            "bool",
+            "also compute the world-space Hessian (9 values, row by row) and the principal \
+             curvatures k1 >= k2 of the isosurface (normal -grad/|grad|, Teem's \
+             convention; 0 where the gradient is 0), in f64",
+        ),
     ],
     pos: &[],
 };
@@ -51,6 +61,16 @@ pub static SPEC: CmdSpec = CmdSpec {
 struct Eval {
     pos: [f64; 3],
     grad: bool,
+}
+
+/// Value, gradient and Hessian at one point, in f64.
+struct Second([f64; 3]);
+
+impl ConvoTask for Second {
+    type Output = Option<SecondOrder>;
+    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Self::Output {
+        Convo::<V, K, S>::new(vol).second_order_world(self.0)
+    }
 }
 
 impl ConvoTask for Eval {
@@ -65,6 +85,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     let w = a.get_arr::<f64, 3>("w")?;
     let k: KernelName = parse_named("k", &a.get_str("k").unwrap_or_default())?;
     let grad: bool = a.get("g")?;
+    let hess: bool = a.get("h")?;
     if !w.iter().all(|x| x.is_finite()) {
         anyhow::bail!("-w: position must be finite ({} {} {})", w[0], w[1], w[2]);
     }
@@ -86,6 +107,10 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         if grad {
             outln!("outside =gradient");
         }
+        if hess {
+            outln!("outside =hessian");
+            outln!("outside =kappa");
+        }
         return Ok(());
     }
     outln!(
@@ -96,6 +121,14 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if grad {
         let g: Vec<f64> = s.grad_w.iter().map(|&x| x as f64).collect();
         outln!("{} =gradient", list9(&g));
+    }
+    if hess {
+        // The same inside rule as the f32 sums above, so this is inside too.
+        if let Some(so) = dispatch(vol.view(), k, Second(w)) {
+            let h: Vec<f64> = so.hessian.iter().flatten().copied().collect();
+            outln!("{} =hessian", list9(&h));
+            outln!("{} =kappa", list9(&so.curvatures(0.0)));
+        }
     }
     Ok(())
 }
