@@ -395,20 +395,18 @@ impl<'a> RenderSpec<'a> {
         self.simd
     }
 
-    /// Floats in the image (W·H·channels), when that is addressable.
-    pub fn image_len(&self) -> Option<usize> {
+    /// Floats in the image (W·H·channels); [`RenderSpec::new`] made sure their bytes
+    /// can be addressed.
+    pub fn image_len(&self) -> usize {
         let [w, h] = self.size();
-        (w as usize)
-            .checked_mul(h as usize)?
-            .checked_mul(self.channels)
-            .filter(|&n| n.checked_mul(4).is_some())
+        w as usize * h as usize * self.channels
     }
 
     /// The checks that need the volume: the reference arithmetic compares index bounds
     /// in f32, exact only for axes of at most [`refarith::MAX_AXIS`] samples.
     ///
     /// # Errors
-    /// [`ErrorKind::Render`] when an axis is too long for the arithmetic.
+    /// [`ErrorKind::Volume`] when an axis is too long for the arithmetic.
     pub fn check_volume(&self, sizes: [usize; 3]) -> Result<()> {
         if let (true, Some(n)) = (
             self.params.reference,
@@ -743,8 +741,8 @@ fn too_large(w: u32, h: u32) -> Error {
 /// row-major from the top).
 ///
 /// # Errors
-/// [`ErrorKind::Render`] when the volume fails [`RenderSpec::check_volume`] or the image
-/// is too large to address; [`ErrorKind::Memory`] when it cannot be allocated.
+/// [`ErrorKind::Volume`] when the volume fails [`RenderSpec::check_volume`];
+/// [`ErrorKind::Memory`] when the image cannot be allocated.
 pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> Result<Vec<f32>> {
     struct Whole<'s, 'a>(&'s RenderSpec<'a>, Vec<f32>);
     impl ConvoTask for Whole<'_, '_> {
@@ -758,7 +756,7 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
     }
     spec.check_volume(vol.sizes())?;
     let [w, h] = spec.size();
-    let len = spec.image_len().ok_or_else(|| too_large(w, h))?;
+    let len = spec.image_len();
     let mut out = Vec::new();
     out.try_reserve_exact(len).map_err(|_| {
         Error::about(

@@ -135,12 +135,7 @@ pub fn render_with(
         param: Some(Param::ImageSize),
         ..e
     };
-    let len = spec.image_len().ok_or_else(|| {
-        image_err(
-            Error::msg(format!("a {w} x {h} image is too large to address"))
-                .with_kind(ErrorKind::Memory),
-        )
-    })?;
+    let len = spec.image_len();
     let what = format!(
         "a {w} x {h} image with {} channel{}",
         spec.channels(),
