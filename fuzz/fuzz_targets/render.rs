@@ -72,7 +72,7 @@ fuzz_target!(|data: &[u8]| {
     p.plane_sep = b.f64().abs() / 10.0;
     p.sample_once = b.u8() % 7 == 0;
     p.probe = Probe::ALL[(b.u8() % 9) as usize];
-    p.blend = Blend::ALL[(b.u8() % 4) as usize];
+    p.blend = Blend::ALL[b.u8() as usize % Blend::ALL.len()];
     p.outside = b.f64() as f32;
     p.unit_step = b.f64();
     p.alpha_near1 = b.f64() as f32;

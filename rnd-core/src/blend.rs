@@ -1,19 +1,40 @@
-//! How the samples of one ray are reduced to a pixel: the maximum, the sum, the mean of
-//! the counted samples, or front-to-back `over` compositing of premultiplied colours.
+//! How the samples of one ray are reduced to a pixel: a statistic of the counted
+//! samples (maximum, minimum, sum, mean, root of the sum of squares, variance, standard
+//! deviation, median), or front-to-back `over` compositing of premultiplied colours.
+//!
+//! Every statistic is taken per channel over the ray's counted samples x₁ … x_N (the
+//! samples where the probe is defined: inside the volume for the convolved probes):
+//!
+//! | blend | pixel |
+//! |---|---|
+//! | `max`, `min` | the largest, smallest x (NaN samples ignored) |
+//! | `sum` | Σ x (summed in f32, in sample order) |
+//! | `mean` | Σ x / N |
+//! | `l2` | √(Σ x²) (summed in f64) |
+//! | `variance` | Σ x² / N − (Σ x / N)², the population variance (f64, at least 0) |
+//! | `sd` | √variance |
+//! | `median` | the middle of the sorted x; for even N the mean of the two middle ones (NaN sorts above +∞) |
+//!
+//! These are Teem's `nrrdMeasure` definitions (`teem-mrender -m min|l2|variance|stdv|median`).
+//! A ray with no counted sample gets the outside value.
 
 use core::fmt;
 use core::str::FromStr;
 
+use alloc::vec::Vec;
+
 use crate::error::{Error, ErrorKind};
 
-/// A blend: how the values a ray probes become its pixel.
+/// A blend: how the values a ray probes become its pixel (see the
+/// [module docs](self) for each one's definition).
 ///
 /// ```
 /// use rnd_core::blend::Blend;
 ///
 /// assert_eq!("over".parse::<Blend>().unwrap(), Blend::Over);
 /// assert_eq!(Blend::Max.to_string(), "max");
-/// assert!("median".parse::<Blend>().is_err());
+/// assert_eq!("median".parse::<Blend>().unwrap(), Blend::Median);
+/// assert!("mode".parse::<Blend>().is_err());
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Blend {
@@ -25,11 +46,31 @@ pub enum Blend {
     Mean,
     /// Front-to-back compositing (colour probes only).
     Over,
+    /// Per-component minimum.
+    Min,
+    /// Root of the sum of squares.
+    L2,
+    /// Population variance (divided by the number of samples).
+    Variance,
+    /// Standard deviation: the root of [`Blend::Variance`].
+    Sd,
+    /// Median (the mean of the two middle samples for an even count).
+    Median,
 }
 
 impl Blend {
     /// Every blend.
-    pub const ALL: [Blend; 4] = [Blend::Max, Blend::Sum, Blend::Mean, Blend::Over];
+    pub const ALL: [Blend; 9] = [
+        Blend::Max,
+        Blend::Sum,
+        Blend::Mean,
+        Blend::Over,
+        Blend::Min,
+        Blend::L2,
+        Blend::Variance,
+        Blend::Sd,
+        Blend::Median,
+    ];
     /// Name.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -37,7 +78,20 @@ impl Blend {
             Blend::Sum => "sum",
             Blend::Mean => "mean",
             Blend::Over => "over",
+            Blend::Min => "min",
+            Blend::L2 => "l2",
+            Blend::Variance => "variance",
+            Blend::Sd => "sd",
+            Blend::Median => "median",
         }
+    }
+    /// Whether the pixel needs every sample kept until the ray ends (the median).
+    pub fn keeps_samples(self) -> bool {
+        self == Blend::Median
+    }
+    /// Whether sums of the samples and their squares are kept in f64 (l2, variance, sd).
+    fn squares(self) -> bool {
+        matches!(self, Blend::L2 | Blend::Variance | Blend::Sd)
     }
 }
 
@@ -50,13 +104,18 @@ impl fmt::Display for Blend {
 impl FromStr for Blend {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self, Error> {
+        let l = s.to_ascii_lowercase();
+        // Teem's name for the standard deviation is also accepted.
+        let l = if l == "stdv" { "sd" } else { l.as_str() };
         Blend::ALL
             .into_iter()
-            .find(|b| b.as_str().eq_ignore_ascii_case(s))
+            .find(|b| b.as_str() == l)
             .ok_or_else(|| {
                 Error::new(
                     ErrorKind::Name,
-                    alloc::format!("unknown blend \"{s}\" (known: max sum mean over)"),
+                    alloc::format!(
+                        "unknown blend \"{s}\" (known: max min sum mean l2 variance sd median over)"
+                    ),
                 )
             })
     }
@@ -69,8 +128,11 @@ pub struct Accum {
     pub blend: Blend,
     /// Number of channels in use.
     pub len: usize,
-    /// Accumulated values (for `over`: premultiplied rgb and alpha).
+    /// Accumulated values: the running maximum or minimum, the f32 sum (`sum`, `mean`),
+    /// or for `over` premultiplied rgb and alpha; unused by the f64 statistics.
     pub acc: [f32; 4],
+    /// For `l2`, `variance` and `sd`: the f64 sums of the samples and of their squares.
+    pub sums: [[f64; 2]; 4],
     /// Number of samples blended.
     pub count: u32,
 }
@@ -83,26 +145,43 @@ impl Accum {
             blend,
             len,
             acc: [0.0; 4],
+            sums: [[0.0; 2]; 4],
             count: 0,
         }
     }
 
     /// Blends one counted sample `x` (for `over`: un-premultiplied rgb and corrected α).
+    /// The median's samples are kept by the caller ([`Blend::keeps_samples`]); here they
+    /// are only counted.
     #[inline(always)]
     pub fn add(&mut self, x: &[f32; 4]) {
         let first = self.count == 0;
         self.count += 1;
+        let len = self.len.min(4);
         match self.blend {
             Blend::Max => {
-                for c in 0..self.len {
+                for c in 0..len {
                     self.acc[c] = if first { x[c] } else { self.acc[c].max(x[c]) };
                 }
             }
+            Blend::Min => {
+                for c in 0..len {
+                    self.acc[c] = if first { x[c] } else { self.acc[c].min(x[c]) };
+                }
+            }
             Blend::Sum | Blend::Mean => {
-                for c in 0..self.len {
+                for c in 0..len {
                     self.acc[c] += x[c];
                 }
             }
+            Blend::L2 | Blend::Variance | Blend::Sd => {
+                for c in 0..len {
+                    let v = f64::from(x[c]);
+                    self.sums[c][0] += v;
+                    self.sums[c][1] += v * v;
+                }
+            }
+            Blend::Median => {}
             Blend::Over => {
                 let t = (1.0 - self.acc[3]) * x[3];
                 self.acc[0] += t * x[0];
@@ -114,7 +193,7 @@ impl Accum {
     }
 
     /// [`Accum::add`] of one-channel samples `xs` in order (the same arithmetic, so the
-    /// same result), for `max`, `sum` and `mean` with a probe of length 1.
+    /// same result), for every blend but `over` with a probe of length 1.
     #[inline(always)]
     pub fn add_scalars(&mut self, xs: &[f32]) {
         debug_assert!(self.len == 1 && self.blend != Blend::Over);
@@ -122,17 +201,32 @@ impl Accum {
             return;
         };
         match self.blend {
-            Blend::Max => {
+            Blend::Max | Blend::Min => {
+                let pick = if self.blend == Blend::Max {
+                    f32::max
+                } else {
+                    f32::min
+                };
                 let mut m = if self.count == 0 {
                     x0
                 } else {
-                    self.acc[0].max(x0)
+                    pick(self.acc[0], x0)
                 };
                 for &x in rest {
-                    m = m.max(x);
+                    m = pick(m, x);
                 }
                 self.acc[0] = m;
             }
+            b if b.squares() => {
+                let [mut s1, mut s2] = self.sums[0];
+                for &x in xs {
+                    let v = f64::from(x);
+                    s1 += v;
+                    s2 += v * v;
+                }
+                self.sums[0] = [s1, s2];
+            }
+            Blend::Median => {}
             _ => {
                 let mut s = self.acc[0];
                 for &x in xs {
@@ -167,19 +261,44 @@ impl Accum {
         self.acc[3]
     }
 
-    /// Final values into `out[..len]`; `outside` when nothing was blended.
+    /// Final values into `out[..len]`; `outside` when nothing was blended. `kept` holds
+    /// the median's samples (reordered here); the other blends ignore it.
     #[inline]
-    pub fn finish(&self, outside: f32, out: &mut [f32]) {
+    pub fn finish(&self, outside: f32, kept: &mut Kept, out: &mut [f32]) {
+        let len = self.len.min(4).min(out.len());
         if self.count == 0 {
-            out[..self.len].fill(outside);
+            out[..len].fill(outside);
             return;
         }
+        let n = self.count as f64;
         match self.blend {
-            Blend::Max | Blend::Sum => out[..self.len].copy_from_slice(&self.acc[..self.len]),
+            Blend::Max | Blend::Min | Blend::Sum => out[..len].copy_from_slice(&self.acc[..len]),
             Blend::Mean => {
                 let n = self.count as f32;
-                for c in 0..self.len {
+                for c in 0..len {
                     out[c] = self.acc[c] / n;
+                }
+            }
+            Blend::L2 => {
+                for c in 0..len {
+                    out[c] = crate::math::sqrt(self.sums[c][1]) as f32;
+                }
+            }
+            Blend::Variance | Blend::Sd => {
+                for c in 0..len {
+                    let [s1, s2] = self.sums[c];
+                    let m = s1 / n;
+                    let var = (s2 / n - m * m).max(0.0);
+                    out[c] = if self.blend == Blend::Sd {
+                        crate::math::sqrt(var) as f32
+                    } else {
+                        var as f32
+                    };
+                }
+            }
+            Blend::Median => {
+                for c in 0..len {
+                    out[c] = median(&mut kept.chans[c]);
                 }
             }
             Blend::Over => {
@@ -191,4 +310,54 @@ impl Accum {
             }
         }
     }
+}
+
+/// The samples a `median` ray keeps, one list per channel (reused from ray to ray).
+#[derive(Debug, Clone, Default)]
+pub struct Kept {
+    chans: [Vec<f32>; 4],
+}
+
+impl Kept {
+    /// Empty lists.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Forgets every sample (keeps the memory).
+    #[inline]
+    pub fn clear(&mut self) {
+        self.chans.iter_mut().for_each(Vec::clear);
+    }
+    /// Keeps the first `len` channels of sample `x`.
+    #[inline]
+    pub fn push(&mut self, x: &[f32; 4], len: usize) {
+        for (ch, &v) in self.chans.iter_mut().zip(x).take(len) {
+            ch.push(v);
+        }
+    }
+    /// Keeps one-channel samples `xs`.
+    #[inline]
+    pub fn push_scalars(&mut self, xs: &[f32]) {
+        self.chans[0].extend_from_slice(xs);
+    }
+    /// The samples kept of channel `c`.
+    pub fn channel(&self, c: usize) -> &[f32] {
+        self.chans.get(c).map_or(&[], |v| v.as_slice())
+    }
+}
+
+/// The median of `v` (reordered): the middle value in the total order of f32 (NaN above
+/// +∞), for an even count the mean of the two middle ones; NaN when `v` is empty.
+fn median(v: &mut [f32]) -> f32 {
+    let n = v.len();
+    if n == 0 {
+        return f32::NAN;
+    }
+    let (below, &mut hi, _) = v.select_nth_unstable_by(n / 2, f32::total_cmp);
+    if n % 2 == 1 {
+        return hi;
+    }
+    // The largest of the lower half is the other middle value.
+    let lo = below.iter().copied().max_by(f32::total_cmp).unwrap_or(hi);
+    ((f64::from(lo) + f64::from(hi)) / 2.0) as f32
 }

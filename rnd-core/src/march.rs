@@ -12,7 +12,7 @@
 use core::cell::Cell;
 
 use crate::arith::{gmag, Arith, Line, Memo, Placed};
-use crate::blend::{Accum, Blend};
+use crate::blend::{Accum, Blend, Kept};
 use crate::convo::ConvoSample;
 use crate::light::blinn_phong;
 use crate::probe::Probe;
@@ -66,6 +66,8 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// 16th ray looks at them (where they never help, their cost is saved; results
     /// never depend on it).
     pub idle: Cell<u32>,
+    /// Under `median`: the lists of samples, reused from ray to ray.
+    pub kept: Cell<Kept>,
 }
 
 /// Rays without a skip after which bounds are looked at only on every 16th ray.
@@ -84,6 +86,8 @@ struct State<'t> {
     floor: f32,
     unseen: u32,
     best: Option<u32>,
+    /// Under `median`: the ray's samples.
+    kept: Kept,
 }
 
 /// Samples placed for the convolution, in ray order.
@@ -132,7 +136,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             floor: f32::NEG_INFINITY,
             unseen: 0,
             best: None,
+            kept: self.kept.take(),
         };
+        st.kept.clear();
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
         let kend = if sp.once { 1 } else { sp.kmax + 1 };
@@ -140,7 +146,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let (k0, k1, exact) = if N > 1 && !everywhere {
             match self.a.span(&ray, kend) {
                 Some(s) => s,
-                None => return st.acc.finish(p.outside, out),
+                None => return self.finish(&mut st, out),
             }
         } else {
             (0, kend, false)
@@ -178,7 +184,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 if self.a.convolve_run::<G, N>(&ray, k, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
                     if self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res) {
-                        return st.acc.finish(p.outside, out);
+                        return self.finish(&mut st, out);
                     }
                     k += N as u32;
                     continue;
@@ -201,14 +207,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 }
                 if everywhere {
                     if self.everywhere(&ray, kk, &mut st) {
-                        return st.acc.finish(p.outside, out);
+                        return self.finish(&mut st, out);
                     }
                     continue;
                 }
                 if !pb.inside[l] {
                     if tracing {
                         if self.flush::<G, N>(&ray, &mut st, &mut b) {
-                            return st.acc.finish(p.outside, out);
+                            return self.finish(&mut st, out);
                         }
                         self.emit(&ray, kk, &mut st, None, [0.0; 4], false);
                     }
@@ -242,7 +248,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         // the coarse flag, every sample up to `last` is too.
                         if tracing {
                             if self.flush::<G, N>(&ray, &mut st, &mut b) {
-                                return st.acc.finish(p.outside, out);
+                                return self.finish(&mut st, out);
                             }
                             A::blend(&mut st.acc, &mut st.transp, &[0.0; 4]);
                             self.emit(&ray, kk, &mut st, Some([0.0; 4]), [0.0; 4], true);
@@ -263,7 +269,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 (b.n[b.m], b.f[b.m], b.k[b.m]) = (n, pb.f[l], kk);
                 b.m += 1;
                 if b.m == N && self.flush::<G, N>(&ray, &mut st, &mut b) {
-                    return st.acc.finish(p.outside, out);
+                    return self.finish(&mut st, out);
                 }
             }
             k += cnt;
@@ -278,7 +284,25 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             });
             st.acc.count += st.unseen;
         }
-        st.acc.finish(p.outside, out);
+        self.finish(&mut st, out);
+    }
+
+    /// The ray's pixel into `out`; the median's lists go back for the next ray.
+    #[inline(always)]
+    fn finish(&self, st: &mut State<'_>, out: &mut [f32]) {
+        st.acc.finish(self.spec.params.outside, &mut st.kept, out);
+        if self.spec.params.blend.keeps_samples() {
+            self.kept.set(core::mem::take(&mut st.kept));
+        }
+    }
+
+    /// Blends one counted sample's probe `pr` (the median also keeps it).
+    #[inline(always)]
+    fn add(&self, st: &mut State<'_>, pr: &[f32; 4]) {
+        A::blend(&mut st.acc, &mut st.transp, pr);
+        if st.acc.blend.keeps_samples() {
+            st.kept.push(pr, st.acc.len);
+        }
     }
 
     /// The value of the maximized quantity (`v` or `gm`) at sample `k` of the ray, when
@@ -376,6 +400,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             if let Some(xs) = self.scalars::<G, N>(res) {
                 let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
                 st.acc.add_scalars(&xs[..m]);
+                if p.blend.keeps_samples() {
+                    st.kept.push_scalars(&xs[..m]);
+                }
                 let now = st.acc.acc[0];
                 if p.blend == Blend::Max && (!had || now.to_bits() != before.to_bits()) {
                     if let Some(i) = xs[..m].iter().position(|x| x.to_bits() == now.to_bits()) {
@@ -399,7 +426,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let mut pr = [0.0f32; 4];
         let counted = self.probe_inside(ray, k, r[0], gw, &mut st.memo, &mut pr);
         if counted {
-            A::blend(&mut st.acc, &mut st.transp, &pr);
+            self.add(st, &pr);
         }
         if st.trace.is_some() {
             self.emit(ray, k, st, Some(r), pr, counted);
@@ -418,7 +445,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Probe::PosIndex => pr[..3].copy_from_slice(&pos[2].map(|x| x as f32)),
             _ => pr[0] = f32::from(u8::from(inside)),
         }
-        A::blend(&mut st.acc, &mut st.transp, &pr);
+        self.add(st, &pr);
         if st.trace.is_some() {
             self.emit(ray, k, st, inside.then_some([0.0; 4]), pr, true);
         }

@@ -140,3 +140,32 @@ pub fn naive_convo<V: rnd_core::voxel::Voxel>(
     ];
     (true, v, gw)
 }
+
+/// A copy of `../shared`'s CT (which records no spacing, so world = index for us) with
+/// identity space directions and origin, written to `dir`: Teem's gage needs an
+/// orientation to put the same world frame on it. None (after "skipped") without
+/// `../shared`.
+pub fn ct_in_space(test: &str, dir: &Path) -> Option<PathBuf> {
+    use rnd_std::nrrd::{self, Centering, Encoding, WriteOptions};
+    let sh = shared(test)?;
+    let mut n = nrrd::read(&sh.join("volumes/imageio-stent-ct.nrrd")).expect("read the CT");
+    n.header.space = Some("left-posterior-superior".into());
+    n.header.space_directions = Some(
+        (0..3)
+            .map(|a| Some((0..3).map(|c| f64::from(u8::from(a == c))).collect()))
+            .collect(),
+    );
+    n.header.space_origin = Some(vec![0.0; 3]);
+    n.header.centerings = Some(vec![Centering::Cell; 3]);
+    let ct = dir.join("ct.nrrd");
+    nrrd::write(
+        &n,
+        &ct,
+        WriteOptions {
+            encoding: Encoding::Gzip,
+            ..Default::default()
+        },
+    )
+    .expect("write the CT copy");
+    Some(ct)
+}

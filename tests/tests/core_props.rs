@@ -291,5 +291,6 @@ fn names_round_trip() {
     }
     assert!("cubic".parse::<KernelName>().is_err());
     assert!("value2".parse::<Probe>().is_err());
-    assert!("min".parse::<Blend>().is_err());
+    assert!("mode".parse::<Blend>().is_err());
+    assert_eq!("STDV".parse::<Blend>().unwrap(), Blend::Sd);
 }

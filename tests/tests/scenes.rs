@@ -915,6 +915,41 @@ fn every_probe_blend_pair_blends_its_samples() {
                                     }
                                 }
                             }
+                            Blend::Min => {
+                                for c in 0..len {
+                                    want[c] = counted.iter().map(|x| x[c]).fold(f32::MAX, f32::min);
+                                }
+                            }
+                            Blend::L2 | Blend::Variance | Blend::Sd => {
+                                // Two passes (mean, then squared deviations), unlike the
+                                // renderer's running sums.
+                                for c in 0..len {
+                                    let xs: Vec<f64> =
+                                        counted.iter().map(|x| x[c] as f64).collect();
+                                    let n = xs.len() as f64;
+                                    let mean = xs.iter().sum::<f64>() / n;
+                                    let var =
+                                        xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+                                    let l2 = xs.iter().map(|x| x * x).sum::<f64>().sqrt();
+                                    want[c] = match blend {
+                                        Blend::L2 => l2,
+                                        Blend::Variance => var,
+                                        _ => var.sqrt(),
+                                    } as f32;
+                                }
+                            }
+                            Blend::Median => {
+                                for c in 0..len {
+                                    let mut xs: Vec<f32> = counted.iter().map(|x| x[c]).collect();
+                                    xs.sort_by(f32::total_cmp);
+                                    let n = xs.len();
+                                    want[c] = if n % 2 == 1 {
+                                        xs[n / 2]
+                                    } else {
+                                        ((xs[n / 2 - 1] as f64 + xs[n / 2] as f64) / 2.0) as f32
+                                    };
+                                }
+                            }
                             Blend::Over => {
                                 let (mut col, mut al) = ([0.0f32; 3], 0.0f32);
                                 for x in &counted {
@@ -945,7 +980,8 @@ fn every_probe_blend_pair_blends_its_samples() {
                 }
             }
         }
-        assert_eq!(checked, 3 * (9 * 3 + 2));
+        // Every probe with every blend but over, and over with the two colour probes.
+        assert_eq!(checked, 3 * (9 * (Blend::ALL.len() - 1) + 2));
     }
 }
 
@@ -971,9 +1007,14 @@ fn loop_case(
         Probe::RgbaLit,
     ][pi];
     let blend = if probe.is_colour() {
-        Blend::ALL[bi]
+        Blend::ALL[bi % Blend::ALL.len()]
     } else {
-        Blend::ALL[bi % 3]
+        // Every blend but over (which needs colour).
+        let scalar: Vec<Blend> = Blend::ALL
+            .into_iter()
+            .filter(|&b| b != Blend::Over)
+            .collect();
+        scalar[bi % scalar.len()]
     };
     let a = Txf::new(
         TxfSpace::Alpha,
@@ -1031,7 +1072,7 @@ proptest::proptest! {
         which in proptest::sample::select(vec![2u32, 9, 10, 12, 13]),
         ki in 0usize..7,
         pi in 0usize..5,
-        bi in 0usize..4,
+        bi in 0usize..9,
         fr in proptest::array::uniform3(-6.0f64..6.0),
         at in proptest::array::uniform3(-1.0f64..1.0),
         // Whole-number planes with binary-fraction steps put samples exactly on the far

@@ -223,28 +223,7 @@ fn convolution_agrees_with_gprobe() {
         .collect();
     check("sdg-ml", &f, pts, &dir);
     // 2. The real CT volume (no spacing recorded: index = world).
-    if let Some(sh) = rnd_tests::shared("convolution_agrees_with_gprobe (CT part)") {
-        // The file records no spacing (world = index for us). gage needs orientation:
-        // give it identity space directions in a copy (written by rendr, read by Teem).
-        let mut n = nrrd::read(&sh.join("volumes/imageio-stent-ct.nrrd")).unwrap();
-        n.header.space = Some("left-posterior-superior".into());
-        n.header.space_directions = Some(
-            (0..3)
-                .map(|a| Some((0..3).map(|c| f64::from(u8::from(a == c))).collect()))
-                .collect(),
-        );
-        n.header.space_origin = Some(vec![0.0; 3]);
-        n.header.centerings = Some(vec![Centering::Cell; 3]);
-        let ct = dir.join("ct.nrrd");
-        nrrd::write(
-            &n,
-            &ct,
-            WriteOptions {
-                encoding: Encoding::Gzip,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    if let Some(ct) = rnd_tests::ct_in_space("convolution_agrees_with_gprobe (CT part)", &dir) {
         let sizes = [128.0, 128.0, 256.0];
         let pts: Vec<[f64; 3]> = (0..40)
             .map(|_| std::array::from_fn(|a| 3.0 + rng.next() * (sizes[a] - 7.0)))

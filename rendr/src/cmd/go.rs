@@ -28,8 +28,15 @@ pub static SPEC: CmdSpec = CmdSpec {
            RGBA composited over black).\n\
            Probes: pv pw pi (positions: view, world, index), in (inside), v (value), gv \
            (gradient vector), gm (gradient magnitude), rgba (LUT colour and opacity), \
-           rgbalit (rgba lit by Blinn-Phong, depth-cued). Blends: max sum mean over (over \
-           needs rgba or rgbalit).",
+           rgbalit (rgba lit by Blinn-Phong, depth-cued).\n\
+           Blends, per channel over the ray's counted samples x1..xN (inside the volume \
+           for the convolved probes; a ray with none gets -ov): max, min (NaN samples \
+           ignored); sum (f32, in ray order); mean (sum/N); l2 (sqrt of the sum of x^2); \
+           variance (sum of x^2 / N - mean^2, the population variance, in f64, at least \
+           0); sd (sqrt of variance); median (middle of the sorted samples, the mean of \
+           the two middle ones for even N; NaN sorts above +inf); over (front-to-back \
+           compositing, needs rgba or rgbalit). min l2 variance sd median are Teem's \
+           measures (teem-mrender -m min L2 variance stdv median).",
     response_files: true,
     opts: with_camera_opts!(
         [

@@ -1,0 +1,210 @@
+//! The ray measures (`-b max min sum mean l2 variance sd median`) against
+//! `teem-mrender -m max min sum mean L2 variance stdv median`: same volume, same camera,
+//! same sampling planes, value probe, with both arithmetics.
+//!
+//! Where the two programs sample alike: mrender (hoover + gage) counts a sample when its
+//! position is inside the volume's bounds and probes it with padding, while our inside
+//! rule needs the kernel's whole support inside. So the views below keep every ray, near
+//! to far, well inside the volume, where both count the same samples. mrender's image
+//! rows run upwards (v increases with the up vector) and ours downwards: its image is
+//! compared flipped. mrender computes in f64 from f64 samples, we in f32 (l2, variance
+//! and sd in f64 from f32 samples), so the bound is relative to the image's largest value or the volume's (whichever is
+//! larger: a sample's f32 error is relative to the volume's values).
+
+use std::path::Path;
+
+use rnd_core::blend::Blend;
+use rnd_core::camera::CameraSpec;
+use rnd_core::kernel::KernelName;
+use rnd_core::probe::Probe;
+use rnd_core::render::{RenderParams, RenderSpec};
+use rnd_std::nrrd;
+use rnd_std::volume_io::load_volume;
+
+/// teem-mrender's name for each measure.
+const MEASURES: [(Blend, &str); 8] = [
+    (Blend::Max, "max"),
+    (Blend::Min, "min"),
+    (Blend::Sum, "sum"),
+    (Blend::Mean, "mean"),
+    (Blend::L2, "L2"),
+    (Blend::Variance, "variance"),
+    (Blend::Sd, "stdv"),
+    (Blend::Median, "median"),
+];
+
+/// A view: look-from, look-at, near/far relative to look-at, fov, size, orthographic.
+struct View {
+    from: [f64; 3],
+    at: [f64; 3],
+    near: f64,
+    far: f64,
+    fov: f64,
+    size: [u32; 2],
+    ortho: bool,
+    step: f64,
+}
+
+fn mrender(vol: &Path, v: &View, kernel: &str, measure: &str, out: &Path) -> Vec<f64> {
+    let f = |x: &[f64]| x.iter().map(|c| c.to_string()).collect::<Vec<_>>();
+    let mut args: Vec<String> = vec!["-i".into(), vol.to_str().unwrap().into()];
+    args.extend(["-k", "scalar", "-fr"].map(String::from));
+    args.extend(f(&v.from));
+    args.push("-at".into());
+    args.extend(f(&v.at));
+    args.extend(["-up", "0", "0", "1", "-ar", "-di", "0"].map(String::from));
+    args.extend([
+        "-dn".into(),
+        v.near.to_string(),
+        "-df".into(),
+        v.far.to_string(),
+    ]);
+    args.extend(["-fv".into(), v.fov.to_string()]);
+    args.extend(["-is".into(), v.size[0].to_string(), v.size[1].to_string()]);
+    if v.ortho {
+        args.push("-or".into());
+    }
+    args.extend([
+        "-k00".into(),
+        kernel.into(),
+        "-k11".into(),
+        format!("{kernel}d"),
+    ]);
+    args.extend(["-q", "v", "-m", measure, "-step"].map(String::from));
+    args.push(v.step.to_string());
+    args.extend(["-o".into(), out.to_str().unwrap().into()]);
+    let a: Vec<&str> = args.iter().map(String::as_str).collect();
+    rnd_tests::run("teem-mrender", &a);
+    let img = nrrd::read(out).unwrap();
+    assert_eq!(
+        img.header.sizes,
+        vec![v.size[0] as usize, v.size[1] as usize]
+    );
+    img.data.to_f64()
+}
+
+fn check(name: &str, file: &Path, views: &[View], dir: &Path) {
+    let vol = load_volume(file).unwrap();
+    let (lo, hi) = vol.min_max();
+    // The samples' magnitude: f32 reconstruction errors are relative to it.
+    let vmax = lo.abs().max(hi.abs());
+    for (vi, v) in views.iter().enumerate() {
+        for kernel in [KernelName::Tent, KernelName::Bspln3] {
+            for (blend, m) in MEASURES {
+                let teem = mrender(file, v, kernel.as_str(), m, &dir.join("mr.nrrd"));
+                let [w, h] = v.size.map(|x| x as usize);
+                let scale = teem.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+                // A sample's error δ moves the variance by up to about 2·sd·δ.
+                let tol = 2e-5
+                    * match blend {
+                        Blend::Variance => scale.max(vmax * scale.sqrt()),
+                        _ => scale.max(vmax),
+                    };
+                // (Every CT ray crosses air, so its tent minimum is 0 everywhere.)
+                assert!(
+                    scale > 0.0 || blend == Blend::Min,
+                    "{name} view {vi} {kernel} {m}: Teem's image is all 0"
+                );
+                for reference in [true, false] {
+                    let cam = CameraSpec::looking_at(v.from, v.at)
+                        .up([0.0, 0.0, 1.0])
+                        .fov(v.fov)
+                        .clip(v.near, v.far)
+                        .size(v.size[0], v.size[1])
+                        .orthographic(v.ortho);
+                    let mut p = RenderParams::new(cam);
+                    (p.probe, p.blend, p.plane_sep, p.reference) =
+                        (Probe::Value, blend, v.step, reference);
+                    let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+                    let ours = rnd_std::parallel::render(&spec, vol.view(), kernel, 2).unwrap();
+                    assert_eq!(ours.len(), w * h);
+                    for y in 0..h {
+                        for x in 0..w {
+                            let (o, t) = (ours[x + w * y] as f64, teem[x + w * (h - 1 - y)]);
+                            assert!(
+                                (o - t).abs() <= tol,
+                                "{name} view {vi} {kernel} {blend} (ref {reference}) pixel \
+                                 ({x}, {y}): ours {o}, teem-mrender -m {m} {t} (scale {scale})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn measures_agree_with_mrender() {
+    if !rnd_tests::teem("measures_agree_with_mrender", "teem-mrender") {
+        return;
+    }
+    let dir = rnd_tests::tmpdir("mrender");
+    // 1. The bundled head MRI (2×2×3 mm, permuted axes with a flip): views along world y
+    //    from the centre of its bounding box, every ray inside it.
+    let head = rnd_tests::root().join("data/itk-t1-head.nrrd");
+    let hv = load_volume(&head).unwrap();
+    let corners = hv.view().world_corners();
+    let lo: [f64; 3] =
+        std::array::from_fn(|a| corners.iter().map(|c| c[a]).fold(f64::MAX, f64::min));
+    let hi: [f64; 3] =
+        std::array::from_fn(|a| corners.iter().map(|c| c[a]).fold(f64::MIN, f64::max));
+    let at: [f64; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
+    let half: [f64; 3] = std::array::from_fn(|a| 0.5 * (hi[a] - lo[a]));
+    let d = 400.0;
+    let from = [at[0], at[1] - d, at[2]];
+    // Image half-height within 70% of the box on x and z (square image), rays from
+    // −60% to +60% of its depth.
+    let h_ortho = 0.7 * half[0].min(half[2]);
+    let views = [
+        View {
+            from,
+            at,
+            near: -0.6 * half[1],
+            far: 0.6 * half[1] + 0.013,
+            fov: 2.0 * (h_ortho / d).atan().to_degrees(),
+            size: [36, 36],
+            ortho: true,
+            step: 0.9,
+        },
+        View {
+            from,
+            at,
+            near: -0.6 * half[1],
+            far: 0.6 * half[1] + 0.013,
+            // The far plane is the widest part of a perspective view.
+            fov: 2.0 * (h_ortho / (d + 0.6 * half[1])).atan().to_degrees(),
+            size: [36, 36],
+            ortho: false,
+            step: 0.9,
+        },
+    ];
+    check("head", &head, &views, &dir);
+    // 2. The CT (index space; given identity space directions for gage).
+    if let Some(ct) = rnd_tests::ct_in_space("measures_agree_with_mrender (CT part)", &dir) {
+        let (from, at) = ([63.5, -236.5, 127.5], [63.5, 63.5, 127.5]);
+        let views = [
+            View {
+                from,
+                at,
+                near: -40.25,
+                far: 40.1,
+                fov: 20.0,
+                size: [48, 40],
+                ortho: true,
+                step: 0.7,
+            },
+            View {
+                from,
+                at,
+                near: -40.25,
+                far: 40.1,
+                fov: 14.0,
+                size: [40, 40],
+                ortho: false,
+                step: 0.7,
+            },
+        ];
+        check("stent-ct", &ct, &views, &dir);
+    }
+}
