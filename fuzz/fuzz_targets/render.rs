@@ -71,7 +71,7 @@ fuzz_target!(|data: &[u8]| {
     p.reference = false;
     p.plane_sep = b.f64().abs() / 10.0;
     p.sample_once = b.u8() % 7 == 0;
-    p.probe = Probe::ALL[(b.u8() % 9) as usize];
+    p.probe = Probe::ALL[b.u8() as usize % Probe::ALL.len()];
     p.blend = Blend::ALL[b.u8() as usize % Blend::ALL.len()];
     p.outside = b.f64() as f32;
     p.unit_step = b.f64();

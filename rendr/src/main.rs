@@ -119,6 +119,7 @@ fn option_of(p: rnd_core::Param) -> Option<&'static str> {
         P::SdgSizes => "-sz",
         P::SdgLengths => "-l",
         P::SdgFunction => "-w",
+        P::CurvMinGrad => "-gmc",
         _ => return None,
     })
 }

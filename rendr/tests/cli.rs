@@ -1791,3 +1791,77 @@ fn ceval_hessian_and_curvature() {
     );
     assert!(s.ends_with("outside =hessian\noutside =kappa\n"), "{s}");
 }
+
+/// `go -p hess` writes 9 channels (2I for |x|², bspln3), `-p k1 -b min` / `-b max` bound
+/// −1/r, `-gmc` and the new blends are parsed and refused with the option's name.
+#[test]
+fn go_second_order_probes_and_measures() {
+    use rnd_std::nrrd::{Data, Nrrd};
+    let d = rnd_tests::tmpdir("gohess");
+    let n = 16;
+    let c = (n as f32 - 1.0) / 2.0;
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, (i / n) % n, i / (n * n)];
+            p.iter().map(|&x| (x as f32 - c).powi(2)).sum()
+        })
+        .collect();
+    let mut vol = Nrrd::new(vec![n, n, n], Data::F32(data)).unwrap();
+    vol.header.space = Some("3D-right-handed".into());
+    vol.header.space_directions = Some(
+        (0..3)
+            .map(|a| Some((0..3).map(|b| f64::from(u8::from(a == b))).collect()))
+            .collect(),
+    );
+    vol.header.space_origin = Some(vec![-c as f64; 3]);
+    rnd_std::nrrd::write(&vol, &d.join("sq.nrrd"), Default::default()).unwrap();
+    let cam = [
+        "-i", "sq.nrrd", "-k", "bspln3", "-fr", "2", "-40", "3", "-at", "2", "0", "3", "-up", "0",
+        "0", "1", "-nc", "-4", "-fc", "4", "-fov", "1", "-sz", "5", "5", "-s", "0.3",
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        let mut a: Vec<String> = ["go"].iter().map(|s| s.to_string()).collect();
+        a.extend(cam.iter().map(|s| s.to_string()));
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let run = |extra: &[&str], out: &str| -> (Vec<usize>, Vec<f32>) {
+        let a = with(&[extra, &["-o", out]].concat());
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        ok(&d, &a);
+        read_floats(&d.join(out))
+    };
+    let (sizes, h) = run(&["-p", "hess", "-b", "mean"], "h.nrrd");
+    assert_eq!(sizes, vec![9, 5, 5]);
+    for px in h.chunks(9) {
+        for (i, &x) in px.iter().enumerate() {
+            let want = if i % 4 == 0 { 2.0 } else { 0.0 };
+            assert!((x - want).abs() < 1e-4, "hess[{i}] = {x}");
+        }
+    }
+    // The rays pass (2, y, 3) within 0.35 for |y| ≤ 4: every sample is between
+    // r = √(2² + 3²) − 0.5 and √(2² + 4² + 3²) + 0.5 from the centre, where κ1 = −1/r.
+    let (r0, r1) = (13f32.sqrt(), 29f32.sqrt());
+    let (_, lo) = run(&["-p", "k1", "-b", "min"], "lo.nrrd");
+    let (_, hi) = run(&["-p", "k1", "-b", "max"], "hi.nrrd");
+    for (&a, &b) in lo.iter().zip(&hi) {
+        assert!(
+            a >= -1.0 / (r0 - 0.5) && b <= -1.0 / (r1 + 0.5) && a <= b,
+            "{a} {b}"
+        );
+    }
+    // Above every gradient magnitude (2r ≤ 11.2 here), the curvature is 0.
+    let (_, z) = run(&["-p", "gausscurv", "-b", "l2", "-gmc", "12"], "z.nrrd");
+    assert!(z.iter().all(|&x| x == 0.0), "{z:?}");
+    let a = with(&["-p", "k1", "-gmc", "-1", "-o", "x.nrrd"]);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    fails(
+        &d,
+        &a,
+        "-gmc: curvature gradient threshold -1 must be finite and >= 0",
+        Some("x.nrrd"),
+    );
+    let a = with(&["-b", "mode", "-o", "x.nrrd"]);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    fails(&d, &a, "unknown blend \"mode\"", Some("x.nrrd"));
+}

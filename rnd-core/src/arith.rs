@@ -12,9 +12,11 @@
 //!   operation sequence ([`crate::refarith`]), its running sums run [`LANES`] samples
 //!   side by side, opacity correction by `powf`, `over` on the transparency.
 
-use crate::blend::{Accum, Blend};
+use crate::blend::{Accum, Blend, MAX_CHANNELS};
 use crate::camera::Camera;
-use crate::convo::{grad_to_world, locate, place, world_gmags, Convo, Place};
+use crate::convo::{
+    grad_to_world, locate, place, second_order_at, world_gmags, Convo, Place, SecondOrder,
+};
 use crate::kernel::Kernel;
 use crate::math;
 use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
@@ -124,6 +126,11 @@ pub(crate) trait Arith {
     }
     /// World-space gradient from an index-space one.
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3];
+    /// Value, world gradient and world Hessian in f64 for a sample placed at (`n`, `f`)
+    /// by [`Arith::place`] (neither arithmetic has second derivatives of its own: both
+    /// sum the kernels' f64 formulas from their own placement, so the inside rule and
+    /// the sample's position are the arithmetic's).
+    fn second(&self, n: [i64; 3], f: Self::Frac) -> SecondOrder;
     /// World gradient magnitudes of sums `r`.
     #[inline(always)]
     fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
@@ -138,7 +145,7 @@ pub(crate) trait Arith {
     fn correct(&self, ray: &Self::Ray, a: f32, entry: Option<usize>, memo: &mut Memo) -> f32;
     /// Blends a counted probe (`over`: rgb and corrected α; `transp` is the running
     /// transparency, kept by strategies that composite on it).
-    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]);
+    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; MAX_CHANNELS]);
 }
 
 /// [`Arith::place`] and [`Arith::past`] of the `N` samples from `k0`, one by one.
@@ -373,6 +380,9 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
         grad_to_world(&self.convo.grad_matrix(), gi)
     }
+    fn second(&self, n: [i64; 3], f: [f64; 3]) -> SecondOrder {
+        second_order_at::<V, K, S>(self.convo.volume(), n, f)
+    }
     #[inline(always)]
     fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
         world_gmags(&self.convo.grad_matrix(), r)
@@ -388,7 +398,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         }
     }
     #[inline(always)]
-    fn blend(acc: &mut Accum, _transp: &mut f32, pr: &[f32; 4]) {
+    fn blend(acc: &mut Accum, _transp: &mut f32, pr: &[f32; MAX_CHANNELS]) {
         acc.add(pr);
     }
 }
@@ -575,13 +585,16 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
         self.wtoi.gradient(gi)
     }
+    fn second(&self, n: [i64; 3], f: [f32; 3]) -> SecondOrder {
+        second_order_at::<V, K, S>(&self.vol, n, f.map(f64::from))
+    }
     #[inline(always)]
     fn correct(&self, ray: &RefRay, a: f32, _entry: Option<usize>, memo: &mut Memo) -> f32 {
         // The ray's exponent is fixed, so the last result serves equal opacities.
         memoized(memo, a, |a| refarith::correct_alpha(a, ray.alpha_exp))
     }
     #[inline(always)]
-    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; 4]) {
+    fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; MAX_CHANNELS]) {
         // `over` keeps the transparency T: C += T·α·rgb, T ·= 1 − α, opacity 1 − T.
         if acc.blend == Blend::Over {
             let a = pr[3];

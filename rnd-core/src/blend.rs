@@ -121,7 +121,10 @@ impl FromStr for Blend {
     }
 }
 
-/// The running state of one ray's blend, for up to 4 channels.
+/// Most channels a probe has (the Hessian's 9).
+pub const MAX_CHANNELS: usize = 9;
+
+/// The running state of one ray's blend, for up to [`MAX_CHANNELS`] channels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Accum {
     /// Which blend.
@@ -130,9 +133,9 @@ pub struct Accum {
     pub len: usize,
     /// Accumulated values: the running maximum or minimum, the f32 sum (`sum`, `mean`),
     /// or for `over` premultiplied rgb and alpha; unused by the f64 statistics.
-    pub acc: [f32; 4],
+    pub acc: [f32; MAX_CHANNELS],
     /// For `l2`, `variance` and `sd`: the f64 sums of the samples and of their squares.
-    pub sums: [[f64; 2]; 4],
+    pub sums: [[f64; 2]; MAX_CHANNELS],
     /// Number of samples blended.
     pub count: u32,
 }
@@ -144,8 +147,8 @@ impl Accum {
         Accum {
             blend,
             len,
-            acc: [0.0; 4],
-            sums: [[0.0; 2]; 4],
+            acc: [0.0; MAX_CHANNELS],
+            sums: [[0.0; 2]; MAX_CHANNELS],
             count: 0,
         }
     }
@@ -154,10 +157,10 @@ impl Accum {
     /// The median's samples are kept by the caller ([`Blend::keeps_samples`]); here they
     /// are only counted.
     #[inline(always)]
-    pub fn add(&mut self, x: &[f32; 4]) {
+    pub fn add(&mut self, x: &[f32; MAX_CHANNELS]) {
         let first = self.count == 0;
         self.count += 1;
-        let len = self.len.min(4);
+        let len = self.len.min(MAX_CHANNELS);
         match self.blend {
             Blend::Max => {
                 for c in 0..len {
@@ -239,7 +242,7 @@ impl Accum {
     }
 
     /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
-    /// [`Accum::add`] of `[0.0; 4]` does `n` times).
+    /// [`Accum::add`] of zeros does `n` times).
     #[inline(always)]
     pub fn add_transparent(&mut self, n: u32) {
         debug_assert_eq!(self.blend, Blend::Over);
@@ -265,7 +268,7 @@ impl Accum {
     /// the median's samples (reordered here); the other blends ignore it.
     #[inline]
     pub fn finish(&self, outside: f32, kept: &mut Kept, out: &mut [f32]) {
-        let len = self.len.min(4).min(out.len());
+        let len = self.len.min(MAX_CHANNELS).min(out.len());
         if self.count == 0 {
             out[..len].fill(outside);
             return;
@@ -315,7 +318,7 @@ impl Accum {
 /// The samples a `median` ray keeps, one list per channel (reused from ray to ray).
 #[derive(Debug, Clone, Default)]
 pub struct Kept {
-    chans: [Vec<f32>; 4],
+    chans: [Vec<f32>; MAX_CHANNELS],
 }
 
 impl Kept {
@@ -330,7 +333,7 @@ impl Kept {
     }
     /// Keeps the first `len` channels of sample `x`.
     #[inline]
-    pub fn push(&mut self, x: &[f32; 4], len: usize) {
+    pub fn push(&mut self, x: &[f32; MAX_CHANNELS], len: usize) {
         for (ch, &v) in self.chans.iter_mut().zip(x).take(len) {
             ch.push(v);
         }

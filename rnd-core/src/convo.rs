@@ -91,6 +91,68 @@ impl SecondOrder {
     }
 }
 
+/// Value, world gradient and world Hessian of `vol` with kernel `K` for the support
+/// starting at `n` (inside the volume) and fractional offsets `alpha`, summed in f64:
+/// the body of [`Convo::second_order_world`], shared with the renderer's second-order
+/// probes (which place their samples in their own arithmetic).
+pub(crate) fn second_order_at<V: Voxel, K: Kernel<S>, const S: usize>(
+    vol: &Volume<'_, V>,
+    n: [i64; 3],
+    alpha: [f64; 3],
+) -> SecondOrder {
+    let tab = |a: usize, f: fn(f64) -> f64| -> [f64; S] {
+        core::array::from_fn(|i| f(alpha[a] - (K::LO + i as i32) as f64))
+    };
+    let w: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::k::<f64>));
+    let d: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d1::<f64>));
+    let dd: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d2::<f64>));
+    let sz = vol.sizes();
+    let data = vol.data();
+    let (mut v, mut g, mut h) = (0.0f64, [0.0f64; 3], [[0.0f64; 3]; 3]);
+    for k in 0..S {
+        for j in 0..S {
+            let row = (n[0] as usize) + sz[0] * ((n[1] as usize + j) + sz[1] * (n[2] as usize + k));
+            for i in 0..S {
+                let Some(x) = data.get(row + i) else {
+                    continue;
+                };
+                let x = x.to_f32() as f64;
+                let (w0, w1, w2) = (w[0][i], w[1][j], w[2][k]);
+                let (d0, d1, d2) = (d[0][i], d[1][j], d[2][k]);
+                v += x * w0 * w1 * w2;
+                g[0] += x * d0 * w1 * w2;
+                g[1] += x * w0 * d1 * w2;
+                g[2] += x * w0 * w1 * d2;
+                h[0][0] += x * dd[0][i] * w1 * w2;
+                h[1][1] += x * w0 * dd[1][j] * w2;
+                h[2][2] += x * w0 * w1 * dd[2][k];
+                h[0][1] += x * d0 * d1 * w2;
+                h[0][2] += x * d0 * w1 * d2;
+                h[1][2] += x * w0 * d1 * d2;
+            }
+        }
+    }
+    (h[1][0], h[2][0], h[2][1]) = (h[0][1], h[0][2], h[1][2]);
+    let m = vol.wtoi();
+    let gradient = core::array::from_fn(|c| (0..3).map(|a| g[a] * m.at(a, c)).sum());
+    let hessian = core::array::from_fn(|r| {
+        core::array::from_fn(|c| {
+            let mut sum = 0.0;
+            for a in 0..3 {
+                for b in 0..3 {
+                    sum += m.at(a, r) * h[a][b] * m.at(b, c);
+                }
+            }
+            sum
+        })
+    });
+    SecondOrder {
+        value: v,
+        gradient,
+        hessian,
+    }
+}
+
 /// Per-thread convolution state over one volume with kernel `K` of support `S`.
 #[derive(Debug, Clone)]
 pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
@@ -146,55 +208,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     pub fn second_order_world(&self, pos_w: [f64; 3]) -> Option<SecondOrder> {
         let pos_i = self.vol.wtoi().point(pos_w);
         let (n, alpha) = self.place3(pos_i)?;
-        let tab = |a: usize, f: fn(f64) -> f64| -> [f64; S] {
-            core::array::from_fn(|i| f(alpha[a] - (K::LO + i as i32) as f64))
-        };
-        let w: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::k::<f64>));
-        let d: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d1::<f64>));
-        let dd: [[f64; S]; 3] = core::array::from_fn(|a| tab(a, K::d2::<f64>));
-        let sz = self.vol.sizes();
-        let data = self.vol.data();
-        let (mut v, mut g, mut h) = (0.0f64, [0.0f64; 3], [[0.0f64; 3]; 3]);
-        for k in 0..S {
-            for j in 0..S {
-                let row =
-                    (n[0] as usize) + sz[0] * ((n[1] as usize + j) + sz[1] * (n[2] as usize + k));
-                for i in 0..S {
-                    let x = data[row + i].to_f32() as f64;
-                    let (w0, w1, w2) = (w[0][i], w[1][j], w[2][k]);
-                    let (d0, d1, d2) = (d[0][i], d[1][j], d[2][k]);
-                    v += x * w0 * w1 * w2;
-                    g[0] += x * d0 * w1 * w2;
-                    g[1] += x * w0 * d1 * w2;
-                    g[2] += x * w0 * w1 * d2;
-                    h[0][0] += x * dd[0][i] * w1 * w2;
-                    h[1][1] += x * w0 * dd[1][j] * w2;
-                    h[2][2] += x * w0 * w1 * dd[2][k];
-                    h[0][1] += x * d0 * d1 * w2;
-                    h[0][2] += x * d0 * w1 * d2;
-                    h[1][2] += x * w0 * d1 * d2;
-                }
-            }
-        }
-        (h[1][0], h[2][0], h[2][1]) = (h[0][1], h[0][2], h[1][2]);
-        let m = self.vol.wtoi();
-        let gradient = core::array::from_fn(|c| (0..3).map(|a| g[a] * m.at(a, c)).sum());
-        let hessian = core::array::from_fn(|r| {
-            core::array::from_fn(|c| {
-                let mut sum = 0.0;
-                for a in 0..3 {
-                    for b in 0..3 {
-                        sum += m.at(a, r) * h[a][b] * m.at(b, c);
-                    }
-                }
-                sum
-            })
-        });
-        Some(SecondOrder {
-            value: v,
-            gradient,
-            hessian,
-        })
+        Some(second_order_at::<V, K, S>(&self.vol, n, alpha))
     }
 
     /// Convolution at world point `pos_w`; the gradient only when `grad` is true.

@@ -80,6 +80,9 @@ pub enum Param {
     SdgLengths,
     /// Which synthetic function.
     SdgFunction,
+    /// [`crate::render::RenderParams::curv_min_grad`], the curvatures' gradient
+    /// threshold.
+    CurvMinGrad,
 }
 
 impl Param {
@@ -108,6 +111,7 @@ impl Param {
             Param::SdgSizes => "sizes",
             Param::SdgLengths => "edge lengths",
             Param::SdgFunction => "function",
+            Param::CurvMinGrad => "curvature gradient threshold",
         }
     }
 }

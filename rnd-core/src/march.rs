@@ -12,8 +12,8 @@
 use core::cell::Cell;
 
 use crate::arith::{gmag, Arith, Line, Memo, Placed};
-use crate::blend::{Accum, Blend, Kept};
-use crate::convo::ConvoSample;
+use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
+use crate::convo::{ConvoSample, SecondOrder};
 use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
@@ -40,7 +40,7 @@ pub struct SampleInfo {
     /// The convolution (index position, inside, value, gradients).
     pub convo: ConvoSample,
     /// The probe's value at this sample.
-    pub probe: [f32; 4],
+    pub probe: [f32; MAX_CHANNELS],
     /// Whether this sample was blended.
     pub counted: bool,
     /// The running blend after this sample.
@@ -166,7 +166,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         // Runs of consecutive samples with positions computed alongside the sums (an
         // exact span, nothing to skip).
-        let runs = exact && !over && !tracing && below.is_none();
+        let runs = exact && !over && !tracing && below.is_none() && !p.probe.second_order();
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
@@ -216,7 +216,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         if self.flush::<G, N>(&ray, &mut st, &mut b) {
                             return self.finish(&mut st, out);
                         }
-                        self.emit(&ray, kk, &mut st, None, [0.0; 4], false);
+                        self.emit(&ray, kk, &mut st, None, [0.0; MAX_CHANNELS], false);
                     }
                     continue;
                 }
@@ -250,8 +250,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                             if self.flush::<G, N>(&ray, &mut st, &mut b) {
                                 return self.finish(&mut st, out);
                             }
-                            A::blend(&mut st.acc, &mut st.transp, &[0.0; 4]);
-                            self.emit(&ray, kk, &mut st, Some([0.0; 4]), [0.0; 4], true);
+                            A::blend(&mut st.acc, &mut st.transp, &[0.0; MAX_CHANNELS]);
+                            self.emit(&ray, kk, &mut st, Some([0.0; 4]), [0.0; MAX_CHANNELS], true);
                             continue;
                         }
                         if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
@@ -298,7 +298,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
 
     /// Blends one counted sample's probe `pr` (the median also keeps it).
     #[inline(always)]
-    fn add(&self, st: &mut State<'_>, pr: &[f32; 4]) {
+    fn add(&self, st: &mut State<'_>, pr: &[f32; MAX_CHANNELS]) {
         A::blend(&mut st.acc, &mut st.transp, pr);
         if st.acc.blend.keeps_samples() {
             st.kept.push(pr, st.acc.len);
@@ -347,6 +347,24 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
         let sp = self.spec;
         let mut res = [[0.0f32; 4]; N];
+        if sp.params.probe.second_order() {
+            // f64 sums of the kernels' formulas at each placement (the trace also sees
+            // the f32 sums the other probes use).
+            let tracing = st.trace.is_some();
+            if tracing {
+                self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
+            }
+            for i in 0..m {
+                let so = self.a.second(b.n[i], b.f[i]);
+                let mut pr = [0.0f32; MAX_CHANNELS];
+                self.second_probe(&so, &mut pr);
+                self.add(st, &pr);
+                if tracing {
+                    self.emit(ray, b.k[i], st, Some(res[i]), pr, true);
+                }
+            }
+            return false;
+        }
         // Under `over` without Levoy opacity a sample's opacity depends on its value
         // alone, so the gradient is needed only where the opacity is not zero. The value
         // is the same bits with or without the gradient.
@@ -423,7 +441,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         } else {
             [0.0; 3]
         };
-        let mut pr = [0.0f32; 4];
+        let mut pr = [0.0f32; MAX_CHANNELS];
         let counted = self.probe_inside(ray, k, r[0], gw, &mut st.memo, &mut pr);
         if counted {
             self.add(st, &pr);
@@ -438,7 +456,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     fn everywhere(&self, ray: &A::Ray, k: u32, st: &mut State<'_>) -> bool {
         let pos = self.a.positions(ray, k);
         let inside = self.a.place(ray, k).is_some();
-        let mut pr = [0.0f32; 4];
+        let mut pr = [0.0f32; MAX_CHANNELS];
         match self.spec.params.probe {
             Probe::PosView => pr[..3].copy_from_slice(&pos[0].map(|x| x as f32)),
             Probe::PosWorld => pr[..3].copy_from_slice(&pos[1].map(|x| x as f32)),
@@ -459,7 +477,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         k: u32,
         st: &mut State<'_>,
         sums: Option<[f32; 4]>,
-        probe: [f32; 4],
+        probe: [f32; MAX_CHANNELS],
         counted: bool,
     ) {
         let [pos_v, pos_w, pos_i] = self.a.positions(ray, k);
@@ -499,7 +517,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         v: f32,
         gw: [f32; 3],
         memo: &mut Memo,
-        out: &mut [f32; 4],
+        out: &mut [f32; MAX_CHANNELS],
     ) -> bool {
         let sp = self.spec;
         let p = &sp.params;
@@ -528,11 +546,30 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         }
                     }
                 }
-                *out = [rgb[0], rgb[1], rgb[2], a];
+                out[..4].copy_from_slice(&[rgb[0], rgb[1], rgb[2], a]);
             }
             _ => return false,
         }
         true
+    }
+
+    /// A second-order probe (hess k1 k2 meancurv gausscurv) of `so` into `out`.
+    #[inline]
+    fn second_probe(&self, so: &SecondOrder, out: &mut [f32; MAX_CHANNELS]) {
+        let p = &self.spec.params;
+        if p.probe == Probe::Hess {
+            for (o, h) in out.iter_mut().zip(so.hessian.iter().flatten()) {
+                *o = *h as f32;
+            }
+            return;
+        }
+        let [k1, k2] = so.curvatures(p.curv_min_grad);
+        out[0] = match p.probe {
+            Probe::K1 => k1,
+            Probe::K2 => k2,
+            Probe::MeanCurv => 0.5 * (k1 + k2),
+            _ => k1 * k2,
+        } as f32;
     }
 
     /// The corrected opacity of LUT entry `i` (no Levoy opacity): from the table every

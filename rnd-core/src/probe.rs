@@ -34,6 +34,17 @@ pub enum Probe {
     GradVec,
     /// Gradient magnitude (1).
     GradMag,
+    /// World-space Hessian, row-major (9), from the kernel's second derivative.
+    Hess,
+    /// First principal curvature κ1 of the isosurface (1); see
+    /// [`SecondOrder::curvatures`](crate::convo::SecondOrder::curvatures).
+    K1,
+    /// Second principal curvature κ2 ≤ κ1 (1).
+    K2,
+    /// Mean curvature (κ1 + κ2) / 2 (1).
+    MeanCurv,
+    /// Gaussian curvature κ1 κ2 (1).
+    GaussCurv,
     /// LUT colour and corrected opacity (4).
     Rgba,
     /// Rgba lit by Blinn-Phong and depth-cued (4).
@@ -42,7 +53,7 @@ pub enum Probe {
 
 impl Probe {
     /// Every probe in order.
-    pub const ALL: [Probe; 9] = [
+    pub const ALL: [Probe; 14] = [
         Probe::PosView,
         Probe::PosWorld,
         Probe::PosIndex,
@@ -50,6 +61,11 @@ impl Probe {
         Probe::Value,
         Probe::GradVec,
         Probe::GradMag,
+        Probe::Hess,
+        Probe::K1,
+        Probe::K2,
+        Probe::MeanCurv,
+        Probe::GaussCurv,
         Probe::Rgba,
         Probe::RgbaLit,
     ];
@@ -63,6 +79,11 @@ impl Probe {
             Probe::Value => "v",
             Probe::GradVec => "gv",
             Probe::GradMag => "gm",
+            Probe::Hess => "hess",
+            Probe::K1 => "k1",
+            Probe::K2 => "k2",
+            Probe::MeanCurv => "meancurv",
+            Probe::GaussCurv => "gausscurv",
             Probe::Rgba => "rgba",
             Probe::RgbaLit => "rgbalit",
         }
@@ -77,6 +98,11 @@ impl Probe {
             Probe::Value => &["v", "val", "value"],
             Probe::GradVec => &["gv", "gradvec"],
             Probe::GradMag => &["gm", "gradmag"],
+            Probe::Hess => &["hess", "hessian"],
+            Probe::K1 => &["k1", "kappa1"],
+            Probe::K2 => &["k2", "kappa2"],
+            Probe::MeanCurv => &["meancurv", "mc"],
+            Probe::GaussCurv => &["gausscurv", "gc"],
             Probe::Rgba => &["c", "rgba"],
             Probe::RgbaLit => &["cl", "rgbalit"],
         }
@@ -85,7 +111,14 @@ impl Probe {
     pub fn length(self) -> usize {
         match self {
             Probe::PosView | Probe::PosWorld | Probe::PosIndex | Probe::GradVec => 3,
-            Probe::Inside | Probe::Value | Probe::GradMag => 1,
+            Probe::Hess => 9,
+            Probe::Inside
+            | Probe::Value
+            | Probe::GradMag
+            | Probe::K1
+            | Probe::K2
+            | Probe::MeanCurv
+            | Probe::GaussCurv => 1,
             Probe::Rgba | Probe::RgbaLit => 4,
         }
     }
@@ -98,6 +131,11 @@ impl Probe {
     /// Whether a convolution is needed.
     pub fn needs_convo(self) -> bool {
         self >= Probe::Inside
+    }
+    /// Whether it needs second derivatives (the Hessian and the curvatures, computed in
+    /// f64 at each sample: see [`Convo::second_order_world`](crate::convo::Convo::second_order_world)).
+    pub fn second_order(self) -> bool {
+        (Probe::Hess..=Probe::GaussCurv).contains(&self)
     }
     /// Whether it is a colour probe (needs a LUT).
     pub fn is_colour(self) -> bool {
@@ -122,7 +160,8 @@ impl FromStr for Probe {
                 Error::new(
                     ErrorKind::Name,
                     alloc::format!(
-                        "unknown probe \"{s}\" (known: pv pw pi in v gv gm rgba rgbalit)"
+                        "unknown probe \"{s}\" (known: pv pw pi in v gv gm hess k1 k2 meancurv \
+                         gausscurv rgba rgbalit)"
                     ),
                 )
             })

@@ -73,6 +73,10 @@ pub struct RenderParams {
     /// The widest vector instructions to use (lowered to what the processor has; the
     /// same bits at every level).
     pub simd: SimdLevel,
+    /// For the curvature probes (k1 k2 meancurv gausscurv): the gradient magnitude at or
+    /// below which the isosurface is taken as undefined and the curvatures as 0 (`-gmc`,
+    /// as Teem's; default 0).
+    pub curv_min_grad: f64,
 }
 
 impl RenderParams {
@@ -98,6 +102,7 @@ impl RenderParams {
             fast_loop: true,
             reference: true,
             simd: SimdLevel::Avx512,
+            curv_min_grad: 0.0,
         }
     }
 }
@@ -225,6 +230,15 @@ impl<'a> RenderSpec<'a> {
             return Err(rerr(
                 Param::DepthCue,
                 "depth-cue colours must be finite".into(),
+            ));
+        }
+        if !(params.curv_min_grad >= 0.0 && params.curv_min_grad.is_finite()) {
+            return Err(rerr(
+                Param::CurvMinGrad,
+                format!(
+                    "curvature gradient threshold {} must be finite and >= 0",
+                    num(params.curv_min_grad)
+                ),
             ));
         }
         if ph.p < 0.0 {

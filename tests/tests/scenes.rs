@@ -2,7 +2,7 @@
 //! (opacity correction, projection, clipping, counting, Blinn-Phong, depth cue).
 
 use rnd_core::affine::Affine4;
-use rnd_core::blend::Blend;
+use rnd_core::blend::{Blend, MAX_CHANNELS};
 use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::light::{Light, LightSpace, Phong};
@@ -412,7 +412,7 @@ impl ConvoTask for Trace<'_, '_> {
     fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<SampleInfo> {
         let mut all = Vec::new();
         let mut cb = |s: &SampleInfo| all.push(*s);
-        let mut out = [0.0f32; 4];
+        let mut out = [0.0f32; MAX_CHANNELS];
         let [h, v] = self.px;
         self.spec
             .cast::<V, K, S>(vol, h, v, &mut out, Loop::OneSample, Some(&mut cb));
@@ -888,7 +888,7 @@ fn every_probe_blend_pair_blends_its_samples() {
                             px: [h, v],
                         },
                     );
-                    let counted: Vec<[f32; 4]> = samples
+                    let counted: Vec<[f32; MAX_CHANNELS]> = samples
                         .iter()
                         .filter(|s| s.counted)
                         .map(|s| s.probe)
@@ -897,9 +897,9 @@ fn every_probe_blend_pair_blends_its_samples() {
                     if probe.everywhere() {
                         assert_eq!(counted.len(), samples.len());
                     }
-                    let mut want = [0.0f32; 4];
+                    let mut want = [0.0f32; MAX_CHANNELS];
                     if counted.is_empty() {
-                        want = [-7.0; 4];
+                        want = [-7.0; MAX_CHANNELS];
                     } else {
                         match blend {
                             Blend::Max => {
@@ -980,8 +980,12 @@ fn every_probe_blend_pair_blends_its_samples() {
                 }
             }
         }
-        // Every probe with every blend but over, and over with the two colour probes.
-        assert_eq!(checked, 3 * (9 * (Blend::ALL.len() - 1) + 2));
+        // Every probe with every blend but over; the colour probes with every blend.
+        let colour = Probe::ALL.iter().filter(|p| p.is_colour()).count();
+        assert_eq!(
+            checked,
+            3 * ((Probe::ALL.len() - colour) * (Blend::ALL.len() - 1) + colour * Blend::ALL.len())
+        );
     }
 }
 
@@ -1005,6 +1009,9 @@ fn loop_case(
         Probe::GradMag,
         Probe::Rgba,
         Probe::RgbaLit,
+        Probe::Hess,
+        Probe::K1,
+        Probe::GaussCurv,
     ][pi];
     let blend = if probe.is_colour() {
         Blend::ALL[bi % Blend::ALL.len()]
@@ -1071,7 +1078,7 @@ proptest::proptest! {
     fn fast_loop_is_exact(
         which in proptest::sample::select(vec![2u32, 9, 10, 12, 13]),
         ki in 0usize..7,
-        pi in 0usize..5,
+        pi in 0usize..8,
         bi in 0usize..9,
         fr in proptest::array::uniform3(-6.0f64..6.0),
         at in proptest::array::uniform3(-1.0f64..1.0),

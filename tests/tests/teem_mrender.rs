@@ -45,7 +45,27 @@ struct View {
     step: f64,
 }
 
-fn mrender(vol: &Path, v: &View, kernel: &str, measure: &str, out: &Path) -> Vec<f64> {
+/// What is probed and how it is compared.
+struct Probing<'c> {
+    probe: Probe,
+    /// gage's name of the quantity.
+    query: &'c str,
+    kernels: &'c [KernelName],
+    measures: &'c [(Blend, &'c str)],
+    /// The curvatures' gradient threshold (`-gmc`).
+    gmc: f64,
+    /// The bound, relative to the image's (or for values the volume's) largest value.
+    rel: f64,
+}
+
+fn mrender(
+    vol: &Path,
+    v: &View,
+    kernel: &str,
+    pr: &Probing<'_>,
+    measure: &str,
+    out: &Path,
+) -> Vec<f64> {
     let f = |x: &[f64]| x.iter().map(|c| c.to_string()).collect::<Vec<_>>();
     let mut args: Vec<String> = vec!["-i".into(), vol.to_str().unwrap().into()];
     args.extend(["-k", "scalar", "-fr"].map(String::from));
@@ -70,7 +90,13 @@ fn mrender(vol: &Path, v: &View, kernel: &str, measure: &str, out: &Path) -> Vec
         "-k11".into(),
         format!("{kernel}d"),
     ]);
-    args.extend(["-q", "v", "-m", measure, "-step"].map(String::from));
+    // (Teem has no second derivative of tent; the value probes do not use it.)
+    let k22 = match kernel {
+        "tent" => "zero".to_string(),
+        k => format!("{k}dd"),
+    };
+    args.extend(["-k22".into(), k22, "-gmc".into(), pr.gmc.to_string()]);
+    args.extend(["-q", pr.query, "-m", measure, "-step"].map(String::from));
     args.push(v.step.to_string());
     args.extend(["-o".into(), out.to_str().unwrap().into()]);
     let a: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -83,22 +109,23 @@ fn mrender(vol: &Path, v: &View, kernel: &str, measure: &str, out: &Path) -> Vec
     img.data.to_f64()
 }
 
-fn check(name: &str, file: &Path, views: &[View], dir: &Path) {
+fn check(name: &str, file: &Path, views: &[View], pr: &Probing<'_>, dir: &Path) {
     let vol = load_volume(file).unwrap();
     let (lo, hi) = vol.min_max();
     // The samples' magnitude: f32 reconstruction errors are relative to it.
     let vmax = lo.abs().max(hi.abs());
     for (vi, v) in views.iter().enumerate() {
-        for kernel in [KernelName::Tent, KernelName::Bspln3] {
-            for (blend, m) in MEASURES {
-                let teem = mrender(file, v, kernel.as_str(), m, &dir.join("mr.nrrd"));
+        for &kernel in pr.kernels {
+            for &(blend, m) in pr.measures {
+                let teem = mrender(file, v, kernel.as_str(), pr, m, &dir.join("mr.nrrd"));
                 let [w, h] = v.size.map(|x| x as usize);
                 let scale = teem.iter().fold(0.0f64, |a, x| a.max(x.abs()));
                 // A sample's error δ moves the variance by up to about 2·sd·δ.
-                let tol = 2e-5
-                    * match blend {
-                        Blend::Variance => scale.max(vmax * scale.sqrt()),
-                        _ => scale.max(vmax),
+                let tol = pr.rel
+                    * match (pr.probe, blend) {
+                        (Probe::Value, Blend::Variance) => scale.max(vmax * scale.sqrt()),
+                        (Probe::Value, _) => scale.max(vmax),
+                        _ => scale,
                     };
                 // (Every CT ray crosses air, so its tent minimum is 0 everywhere.)
                 assert!(
@@ -114,7 +141,8 @@ fn check(name: &str, file: &Path, views: &[View], dir: &Path) {
                         .orthographic(v.ortho);
                     let mut p = RenderParams::new(cam);
                     (p.probe, p.blend, p.plane_sep, p.reference) =
-                        (Probe::Value, blend, v.step, reference);
+                        (pr.probe, blend, v.step, reference);
+                    p.curv_min_grad = pr.gmc;
                     let spec = RenderSpec::new(p, None, None, &[]).unwrap();
                     let ours = rnd_std::parallel::render(&spec, vol.view(), kernel, 2).unwrap();
                     assert_eq!(ours.len(), w * h);
@@ -123,8 +151,11 @@ fn check(name: &str, file: &Path, views: &[View], dir: &Path) {
                             let (o, t) = (ours[x + w * y] as f64, teem[x + w * (h - 1 - y)]);
                             assert!(
                                 (o - t).abs() <= tol,
-                                "{name} view {vi} {kernel} {blend} (ref {reference}) pixel \
-                                 ({x}, {y}): ours {o}, teem-mrender -m {m} {t} (scale {scale})"
+                                "{name} view {vi} {kernel} {} {blend} (ref {reference}) pixel \
+                                 ({x}, {y}): ours {o}, teem-mrender -q {} -m {m} {t} (scale \
+                                 {scale})",
+                                pr.probe,
+                                pr.query
                             );
                         }
                     }
@@ -179,7 +210,15 @@ fn measures_agree_with_mrender() {
             step: 0.9,
         },
     ];
-    check("head", &head, &views, &dir);
+    let values = Probing {
+        probe: Probe::Value,
+        query: "v",
+        kernels: &[KernelName::Tent, KernelName::Bspln3],
+        measures: &MEASURES,
+        gmc: 0.0,
+        rel: 2e-5,
+    };
+    check("head", &head, &views, &values, &dir);
     // 2. The CT (index space; given identity space directions for gage).
     if let Some(ct) = rnd_tests::ct_in_space("measures_agree_with_mrender (CT part)", &dir) {
         let (from, at) = ([63.5, -236.5, 127.5], [63.5, 63.5, 127.5]);
@@ -205,6 +244,61 @@ fn measures_agree_with_mrender() {
                 step: 0.7,
             },
         ];
-        check("stent-ct", &ct, &views, &dir);
+        check("stent-ct", &ct, &views, &values, &dir);
+    }
+}
+
+/// The curvature probes (`-p k1 k2 meancurv gausscurv`) against mrender's `-q k1 k2
+/// meancurv gausscurv` on the CT, ray mean and maximum. Curvature is 1/|∇f| times
+/// second derivatives, so where the gradient nearly vanishes it is ill-conditioned and
+/// gage's f32 sums part from our f64 ones: both programs take it as 0 below the same
+/// threshold (`-gmc 50`, a few percent of the CT's typical edge gradients).
+#[test]
+fn curvature_probes_agree_with_mrender() {
+    if !rnd_tests::teem("curvature_probes_agree_with_mrender", "teem-mrender") {
+        return;
+    }
+    let dir = rnd_tests::tmpdir("mrender-curv");
+    let Some(ct) = rnd_tests::ct_in_space("curvature_probes_agree_with_mrender", &dir) else {
+        return;
+    };
+    let (from, at) = ([63.5, -236.5, 127.5], [63.5, 63.5, 127.5]);
+    let views = [
+        View {
+            from,
+            at,
+            near: -40.25,
+            far: 40.1,
+            fov: 20.0,
+            size: [40, 40],
+            ortho: true,
+            step: 0.7,
+        },
+        View {
+            from,
+            at,
+            near: -30.25,
+            far: 30.1,
+            fov: 16.0,
+            size: [32, 32],
+            ortho: false,
+            step: 0.9,
+        },
+    ];
+    for (probe, query) in [
+        (Probe::K1, "k1"),
+        (Probe::K2, "k2"),
+        (Probe::MeanCurv, "meancurv"),
+        (Probe::GaussCurv, "gausscurv"),
+    ] {
+        let pr = Probing {
+            probe,
+            query,
+            kernels: &[KernelName::Bspln3, KernelName::C4hexic],
+            measures: &[(Blend::Mean, "mean"), (Blend::Max, "max")],
+            gmc: 50.0,
+            rel: 5e-4,
+        };
+        check("stent-ct", &ct, &views, &pr, &dir);
     }
 }

@@ -27,8 +27,12 @@ pub static SPEC: CmdSpec = CmdSpec {
            an 8-bit PNG when -o ends in .png (one channel quantized over its range or -q; \
            RGBA composited over black).\n\
            Probes: pv pw pi (positions: view, world, index), in (inside), v (value), gv \
-           (gradient vector), gm (gradient magnitude), rgba (LUT colour and opacity), \
-           rgbalit (rgba lit by Blinn-Phong, depth-cued).\n\
+           (gradient vector), gm (gradient magnitude), hess (world Hessian, 9 channels \
+           row-major), k1 k2 (principal curvatures k1 >= k2 of the isosurface, normal = \
+           -gradient/|gradient|, as Teem's gage), meancurv ((k1+k2)/2), gausscurv \
+           (k1*k2), rgba (LUT colour and opacity), rgbalit (rgba lit by Blinn-Phong, \
+           depth-cued). The second-order probes (hess and the curvatures) are summed in \
+           f64 from the kernel's second derivative at the arithmetic's sample positions.\n\
            Blends, per channel over the ray's counted samples x1..xN (inside the volume \
            for the convolved probes; a ray with none gets -ov): max, min (NaN samples \
            ignored); sum (f32, in ray order); mean (sum/N); l2 (sqrt of the sum of x^2); \
@@ -73,6 +77,13 @@ pub static SPEC: CmdSpec = CmdSpec {
                 "max",
                 "blend",
                 "how to combine the samples of a ray",
+            ),
+            def(
+                &["gmc"],
+                1,
+                "0",
+                "min gradmag",
+                "curvature probes (k1 k2 meancurv gausscurv): 0 where the gradient magnitude is at or below this",
             ),
             def(
                 &["ov", "-outsideval"],
@@ -314,6 +325,7 @@ pub fn run_cached(
     params.skip_empty = a.get("ess")?;
     params.fast_loop = a.get("fast")?;
     params.reference = a.get("ref")?;
+    params.curv_min_grad = a.get("gmc")?;
     params.simd = rnd_std::simd_level_from_env();
     let threads = match a.given("nt") {
         true => a.get::<usize>("nt")?,
