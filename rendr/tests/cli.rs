@@ -1000,7 +1000,7 @@ fn bad_input_corpus() {
         (&["-us", "0", "-o", "o.nrrd"], "-us: unit step"),
         (&["-a1", "1.5", "-o", "o.nrrd"], "-a1: alpha_near1"),
         (&["-p", "colour", "-o", "o.nrrd"], "unknown probe"),
-        (&["-b", "min", "-o", "o.nrrd"], "unknown blend"),
+        (&["-b", "mode", "-o", "o.nrrd"], "unknown blend"),
         (&["-k", "cubic", "-o", "o.nrrd"], "unknown kernel"),
         (
             &["-nc", "3", "-fc", "2", "-o", "o.nrrd"],
