@@ -1734,25 +1734,8 @@ fn library_errors_name_the_option() {
 /// whose curvatures with the normal −∇f/|∇f| are both −1/|p|.
 #[test]
 fn ceval_hessian_and_curvature() {
-    use rnd_std::nrrd::{Data, Nrrd};
     let d = rnd_tests::tmpdir("cevalh");
-    let n = 12;
-    let c = (n as f32 - 1.0) / 2.0;
-    let data: Vec<f32> = (0..n * n * n)
-        .map(|i| {
-            let p = [i % n, (i / n) % n, i / (n * n)];
-            p.iter().map(|&x| (x as f32 - c).powi(2)).sum()
-        })
-        .collect();
-    let mut vol = Nrrd::new(vec![n, n, n], Data::F32(data)).unwrap();
-    vol.header.space = Some("3D-right-handed".into());
-    vol.header.space_directions = Some(
-        (0..3)
-            .map(|a| Some((0..3).map(|b| f64::from(u8::from(a == b))).collect()))
-            .collect(),
-    );
-    vol.header.space_origin = Some(vec![-c as f64; 3]);
-    rnd_std::nrrd::write(&vol, &d.join("sq.nrrd"), Default::default()).unwrap();
+    write_squared_distance(&d.join("sq.nrrd"), 12);
     // Off the sample planes on every axis: Catmull-Rom's second derivative jumps at
     // whole index positions.
     let p = [3.0, 0.3, -1.0];
@@ -1796,25 +1779,8 @@ fn ceval_hessian_and_curvature() {
 /// −1/r, `-gmc` and the new blends are parsed and refused with the option's name.
 #[test]
 fn go_second_order_probes_and_measures() {
-    use rnd_std::nrrd::{Data, Nrrd};
     let d = rnd_tests::tmpdir("gohess");
-    let n = 16;
-    let c = (n as f32 - 1.0) / 2.0;
-    let data: Vec<f32> = (0..n * n * n)
-        .map(|i| {
-            let p = [i % n, (i / n) % n, i / (n * n)];
-            p.iter().map(|&x| (x as f32 - c).powi(2)).sum()
-        })
-        .collect();
-    let mut vol = Nrrd::new(vec![n, n, n], Data::F32(data)).unwrap();
-    vol.header.space = Some("3D-right-handed".into());
-    vol.header.space_directions = Some(
-        (0..3)
-            .map(|a| Some((0..3).map(|b| f64::from(u8::from(a == b))).collect()))
-            .collect(),
-    );
-    vol.header.space_origin = Some(vec![-c as f64; 3]);
-    rnd_std::nrrd::write(&vol, &d.join("sq.nrrd"), Default::default()).unwrap();
+    write_squared_distance(&d.join("sq.nrrd"), 16);
     let cam = [
         "-i", "sq.nrrd", "-k", "bspln3", "-fr", "2", "-40", "3", "-at", "2", "0", "3", "-up", "0",
         "0", "1", "-nc", "-4", "-fc", "4", "-fov", "1", "-sz", "5", "5", "-s", "0.3",
@@ -1864,4 +1830,25 @@ fn go_second_order_probes_and_measures() {
     let a = with(&["-b", "mode", "-o", "x.nrrd"]);
     let a: Vec<&str> = a.iter().map(String::as_str).collect();
     fails(&d, &a, "unknown blend \"mode\"", Some("x.nrrd"));
+}
+
+/// Writes f = |x|² sampled on an n³ grid of unit spacing centred on the world origin.
+fn write_squared_distance(path: &Path, n: usize) {
+    use rnd_std::nrrd::{Data, Nrrd};
+    let c = (n as f32 - 1.0) / 2.0;
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, (i / n) % n, i / (n * n)];
+            p.iter().map(|&x| (x as f32 - c).powi(2)).sum()
+        })
+        .collect();
+    let mut vol = Nrrd::new(vec![n, n, n], Data::F32(data)).unwrap();
+    vol.header.space = Some("3D-right-handed".into());
+    vol.header.space_directions = Some(
+        (0..3)
+            .map(|a| Some((0..3).map(|b| f64::from(u8::from(a == b))).collect()))
+            .collect(),
+    );
+    vol.header.space_origin = Some(vec![-c as f64; 3]);
+    rnd_std::nrrd::write(&vol, path, Default::default()).unwrap();
 }
