@@ -13,6 +13,7 @@ use rnd_core::sdg::{self, Grid};
 use rnd_core::txf::{Levoy, Lut, Txf, TxfSpace};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
+use rnd_tests::Trace;
 
 fn grid(sizes: [usize; 3], centre: [f64; 3]) -> Grid {
     Grid {
@@ -399,24 +400,6 @@ fn clipping_and_counting() {
                 pv[38]
             );
         }
-    }
-}
-
-/// Per-sample check of lighting terms through the trace callback.
-struct Trace<'s, 'a> {
-    spec: &'s RenderSpec<'a>,
-    px: [u32; 2],
-}
-impl ConvoTask for Trace<'_, '_> {
-    type Output = Vec<SampleInfo>;
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<SampleInfo> {
-        let mut all = Vec::new();
-        let mut cb = |s: &SampleInfo| all.push(*s);
-        let mut out = [0.0f32; MAX_CHANNELS];
-        let [h, v] = self.px;
-        self.spec
-            .cast::<V, K, S>(vol, h, v, &mut out, Loop::OneSample, Some(&mut cb));
-        all
     }
 }
 

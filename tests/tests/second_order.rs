@@ -11,32 +11,14 @@
 //! (its normal −∇f/|∇f| points outwards), within the kernel's reproduction error.
 
 use rnd_core::affine::Affine4;
-use rnd_core::blend::{Blend, MAX_CHANNELS};
+use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
-use rnd_core::kernel::{Kernel, KernelName};
-use rnd_core::march::{Loop, SampleInfo};
+use rnd_core::kernel::KernelName;
+use rnd_core::march::SampleInfo;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec};
-use rnd_core::volume::{OwnedVolume, Volume};
-use rnd_core::voxel::Voxel;
-
-/// Every sample of the ray through pixel `px`.
-struct Trace<'s, 'a> {
-    spec: &'s RenderSpec<'a>,
-    px: [u32; 2],
-}
-impl ConvoTask for Trace<'_, '_> {
-    type Output = Vec<SampleInfo>;
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<SampleInfo> {
-        let mut all = Vec::new();
-        let mut cb = |s: &SampleInfo| all.push(*s);
-        let mut out = [0.0f32; MAX_CHANNELS];
-        let [h, v] = self.px;
-        self.spec
-            .cast::<V, K, S>(vol, h, v, &mut out, Loop::OneSample, Some(&mut cb));
-        all
-    }
-}
+use rnd_core::render::{dispatch, AnyVolume, RenderParams, RenderSpec};
+use rnd_core::volume::OwnedVolume;
+use rnd_tests::Trace;
 
 /// A 28³ grid of spacing about 0.25, rotated and sheared, centred near the origin.
 fn grid() -> Affine4 {
