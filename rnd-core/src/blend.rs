@@ -204,19 +204,26 @@ impl Accum {
             return;
         };
         match self.blend {
-            Blend::Max | Blend::Min => {
-                let pick = if self.blend == Blend::Max {
-                    f32::max
-                } else {
-                    f32::min
-                };
+            // Written out for each, so that `max`/`min` inline into the loop.
+            Blend::Max => {
                 let mut m = if self.count == 0 {
                     x0
                 } else {
-                    pick(self.acc[0], x0)
+                    self.acc[0].max(x0)
                 };
                 for &x in rest {
-                    m = pick(m, x);
+                    m = m.max(x);
+                }
+                self.acc[0] = m;
+            }
+            Blend::Min => {
+                let mut m = if self.count == 0 {
+                    x0
+                } else {
+                    self.acc[0].min(x0)
+                };
+                for &x in rest {
+                    m = m.min(x);
                 }
                 self.acc[0] = m;
             }
@@ -265,9 +272,10 @@ impl Accum {
     }
 
     /// Final values into `out[..len]`; `outside` when nothing was blended. `kept` holds
-    /// the median's samples (reordered here); the other blends ignore it.
+    /// the median's samples (reordered here; without them the median is NaN); the other
+    /// blends ignore it.
     #[inline]
-    pub fn finish(&self, outside: f32, kept: &mut Kept, out: &mut [f32]) {
+    pub fn finish(&self, outside: f32, mut kept: Option<&mut Kept>, out: &mut [f32]) {
         let len = self.len.min(MAX_CHANNELS).min(out.len());
         if self.count == 0 {
             out[..len].fill(outside);
@@ -301,7 +309,9 @@ impl Accum {
             }
             Blend::Median => {
                 for c in 0..len {
-                    out[c] = median(&mut kept.chans[c]);
+                    out[c] = kept
+                        .as_deref_mut()
+                        .map_or(f32::NAN, |k| median(&mut k.chans[c]));
                 }
             }
             Blend::Over => {

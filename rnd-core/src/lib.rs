@@ -47,6 +47,7 @@ pub mod affine;
 pub(crate) mod arith;
 pub mod blend;
 pub mod camera;
+pub mod classify;
 pub mod convo;
 pub mod error;
 pub mod kernel;

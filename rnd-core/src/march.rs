@@ -13,11 +13,13 @@ use core::cell::Cell;
 
 use crate::arith::{gmag, Arith, Line, Memo, Placed};
 use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
+use crate::classify::Quantity;
 use crate::convo::{ConvoSample, SecondOrder};
 use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
 use crate::skip::{SkipGrid, SkipKind, COARSE_EMPTY, FINE_EMPTY};
+use crate::txf::Lut;
 
 /// Which loop casts a ray (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -87,7 +89,7 @@ struct State<'t> {
     unseen: u32,
     best: Option<u32>,
     /// Under `median`: the ray's samples.
-    kept: Kept,
+    kept: Option<Kept>,
 }
 
 /// Samples placed for the convolution, in ray order.
@@ -136,9 +138,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             floor: f32::NEG_INFINITY,
             unseen: 0,
             best: None,
-            kept: self.kept.take(),
+            kept: p.blend.keeps_samples().then(|| {
+                let mut k = self.kept.take();
+                k.clear();
+                k
+            }),
         };
-        st.kept.clear();
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
         let kend = if sp.once { 1 } else { sp.kmax + 1 };
@@ -166,7 +171,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         // Runs of consecutive samples with positions computed alongside the sums (an
         // exact span, nothing to skip).
-        let runs = exact && !over && !tracing && below.is_none() && !p.probe.second_order();
+        let runs = exact && !over && !tracing && below.is_none() && !sp.second;
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
@@ -290,9 +295,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// The ray's pixel into `out`; the median's lists go back for the next ray.
     #[inline(always)]
     fn finish(&self, st: &mut State<'_>, out: &mut [f32]) {
-        st.acc.finish(self.spec.params.outside, &mut st.kept, out);
-        if self.spec.params.blend.keeps_samples() {
-            self.kept.set(core::mem::take(&mut st.kept));
+        st.acc
+            .finish(self.spec.params.outside, st.kept.as_mut(), out);
+        if let Some(kept) = st.kept.take() {
+            self.kept.set(kept);
         }
     }
 
@@ -300,8 +306,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     #[inline(always)]
     fn add(&self, st: &mut State<'_>, pr: &[f32; MAX_CHANNELS]) {
         A::blend(&mut st.acc, &mut st.transp, pr);
-        if st.acc.blend.keeps_samples() {
-            st.kept.push(pr, st.acc.len);
+        if let Some(kept) = &mut st.kept {
+            kept.push(pr, st.acc.len);
         }
     }
 
@@ -347,7 +353,22 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
         let sp = self.spec;
         let mut res = [[0.0f32; 4]; N];
-        if sp.params.probe.second_order() {
+        if sp.second && sp.params.probe.is_colour() {
+            // A LUT with a curvature axis: the f32 sums as for any colour probe, and the
+            // principal curvatures from the f64 second-order sums.
+            self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
+            for i in 0..m {
+                let curv = self
+                    .a
+                    .second(b.n[i], b.f[i])
+                    .curvatures(sp.params.curv_min_grad);
+                if self.take::<G>(ray, st, b.k[i], res[i], curv) {
+                    return true;
+                }
+            }
+            return false;
+        }
+        if sp.second {
             // f64 sums of the kernels' formulas at each placement (the trace also sees
             // the f32 sums the other probes use).
             let tracing = st.trace.is_some();
@@ -368,9 +389,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         // Under `over` without Levoy opacity a sample's opacity depends on its value
         // alone, so the gradient is needed only where the opacity is not zero. The value
         // is the same bits with or without the gradient.
-        if let (true, Blend::Over, None, Some(lut), false) =
-            (G, sp.params.blend, sp.levoy, sp.lut, st.trace.is_some())
-        {
+        if let (true, Blend::Over, None, Some(lut), false, true) = (
+            G,
+            sp.params.blend,
+            sp.levoy,
+            sp.lut,
+            st.trace.is_some(),
+            sp.lut.is_some_and(Lut::by_value),
+        ) {
             self.a.convolve::<false, N>(&b.n, &b.f, m, &mut res);
             // The samples that are not transparent, convolved again with the gradient.
             let mut keep = [0usize; N];
@@ -387,7 +413,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             let mut j = 0;
             for i in 0..m {
                 if j < nk && keep[j] == i {
-                    if self.take::<G>(ray, st, b.k[j], res[j]) {
+                    if self.take::<G>(ray, st, b.k[j], res[j], [0.0; 2]) {
                         return true;
                     }
                     j += 1;
@@ -418,8 +444,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             if let Some(xs) = self.scalars::<G, N>(res) {
                 let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
                 st.acc.add_scalars(&xs[..m]);
-                if p.blend.keeps_samples() {
-                    st.kept.push_scalars(&xs[..m]);
+                if let Some(kept) = &mut st.kept {
+                    kept.push_scalars(&xs[..m]);
                 }
                 let now = st.acc.acc[0];
                 if p.blend == Blend::Max && (!had || now.to_bits() != before.to_bits()) {
@@ -430,19 +456,34 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 return false;
             }
         }
-        (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i]))
+        (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i], [0.0; 2]))
     }
 
-    /// Probes and blends one convolved sample k (sums `r`); true when the ray ends.
+    /// Probes and blends one convolved sample k (sums `r`, principal curvatures `curv`
+    /// when the LUT needs them); true when the ray ends.
     #[inline(always)]
-    fn take<const G: bool>(&self, ray: &A::Ray, st: &mut State<'_>, k: u32, r: [f32; 4]) -> bool {
+    fn take<const G: bool>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        k: u32,
+        r: [f32; 4],
+        curv: [f64; 2],
+    ) -> bool {
         let gw = if G {
             self.a.grad_world([r[1], r[2], r[3]])
         } else {
             [0.0; 3]
         };
         let mut pr = [0.0f32; MAX_CHANNELS];
-        let counted = self.probe_inside(ray, k, r[0], gw, &mut st.memo, &mut pr);
+        let counted = self.probe_inside(
+            ray,
+            k,
+            [r[0], gw[0], gw[1], gw[2]],
+            curv,
+            &mut st.memo,
+            &mut pr,
+        );
         if counted {
             self.add(st, &pr);
         }
@@ -508,26 +549,35 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     }
 
     /// The probes counted only inside (v, gv, gm, rgba, rgbalit) at sample k for value
-    /// `v` and world gradient `gw`; whether the sample is blended.
+    /// and world gradient `vg` and principal curvatures `curv` (used by curvature LUT
+    /// axes only); whether the sample is blended.
     #[inline(always)]
     fn probe_inside(
         &self,
         ray: &A::Ray,
         k: u32,
-        v: f32,
-        gw: [f32; 3],
+        vg: [f32; 4],
+        curv: [f64; 2],
         memo: &mut Memo,
         out: &mut [f32; MAX_CHANNELS],
     ) -> bool {
         let sp = self.spec;
         let p = &sp.params;
+        let (v, gw) = (vg[0], [vg[1], vg[2], vg[3]]);
         match p.probe {
             Probe::Value => out[0] = v,
             Probe::GradVec => out[..3].copy_from_slice(&gw),
             Probe::GradMag => out[0] = gmag(gw),
             Probe::Rgba | Probe::RgbaLit => {
                 let Some(lut) = sp.lut else { return false };
-                let i = lut.index(v as f64);
+                let i = if lut.by_value() {
+                    lut.index(v as f64)
+                } else {
+                    let gm = f64::from(gmag(gw));
+                    let [a0, a1] = [0, 1].map(|a| lut.axes().get(a).map(|x| x.quantity));
+                    let q = |a: Option<Quantity>| a.map_or(0.0, |q| q.of(v as f64, gm, curv));
+                    lut.entry([q(a0), q(a1)])
+                };
                 let e = lut.entries()[i];
                 let a = match sp.levoy {
                     None => self.lut_alpha(ray, i, memo),

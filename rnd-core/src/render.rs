@@ -145,6 +145,8 @@ pub struct RenderSpec<'a> {
     pub(crate) lights: Vec<([f32; 3], [f32; 3])>,
     pub(crate) channels: usize,
     pub(crate) need_grad: bool,
+    /// Whether samples need second derivatives (curvature probes or LUT axes).
+    pub(crate) second: bool,
     pub(crate) once: bool,
     /// Sample numbers beyond this are past the far plane on every ray.
     pub(crate) kmax: u32,
@@ -279,7 +281,12 @@ impl<'a> RenderSpec<'a> {
         let need_grad = params.probe == Probe::GradVec
             || params.probe == Probe::GradMag
             || params.probe == Probe::RgbaLit
-            || (params.probe == Probe::Rgba && levoy.is_some());
+            || (params.probe == Probe::Rgba && levoy.is_some())
+            || (params.probe.is_colour() && lut.is_some_and(Lut::needs_gradient));
+        // Second derivatives at each sample: a second-order probe, or a colour probe
+        // whose LUT classifies by curvature.
+        let second = params.probe.second_order()
+            || (params.probe.is_colour() && lut.is_some_and(Lut::second_order));
         let channels = params.probe.length() + usize::from(params.time);
         let ref_cam = RefCamera::new(&params.camera);
         let lights = if params.reference {
@@ -343,6 +350,7 @@ impl<'a> RenderSpec<'a> {
             lights,
             channels,
             need_grad,
+            second,
             once,
             kmax,
             depth_cue,

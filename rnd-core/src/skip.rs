@@ -14,6 +14,7 @@
 
 use alloc::vec::Vec;
 
+use crate::classify::Quantity;
 use crate::kernel::KernelName;
 use crate::txf::Lut;
 use crate::volume::Volume;
@@ -164,12 +165,15 @@ pub struct SkipPlan<'l> {
 /// How a block's voxel range is judged.
 #[derive(Debug, Clone)]
 enum Test<'l> {
-    /// Zero opacity: the LUT, prefix counts of its non-zero-opacity entries, and the
-    /// widening of a voxel range by negative kernel lobes.
+    /// Zero opacity: the LUT, counts of its non-zero-opacity entries (a summed-area
+    /// table: entry i + (N + 1)·j counts those before i along the first axis and before
+    /// j along the second), the widening of a voxel range by negative kernel lobes, and
+    /// the gradient magnitude's bound when an axis classifies by it.
     Opacity {
         lut: &'l Lut,
-        nz: Vec<u32>,
+        nz: Vec<usize>,
         wneg: f64,
+        gm: Option<Linear>,
     },
     /// An upper bound.
     Bound(Linear),
@@ -196,25 +200,38 @@ pub struct SkipPart<'o> {
 
 impl<'l> SkipPlan<'l> {
     /// The plan for `vol` reconstructed with `kernel` and opacities from `lut`
-    /// ([`SkipKind::Opacity`]).
+    /// ([`SkipKind::Opacity`]). A block is empty when every entry its samples can reach
+    /// has opacity 0: along a value axis, the entries of the values the convolution can
+    /// reach; along a gradient-magnitude axis, those of [0, the block's bound of it]
+    /// (as `max` renders of `gm` bound it); along a curvature axis, every entry.
     pub fn new<V: Voxel>(vol: &Volume<'_, V>, kernel: KernelName, lut: &'l Lut) -> Self {
         // Reachable values: v = Σ w_i v_i with Σ w_i = 1 and Σ |w_i| ≤ C (3-D product),
         // so v ∈ [m − W(M − m), M + W(M − m)] with W = (C − 1)/2.
         let c = abs_weight_sum(kernel, 0);
         let wneg = (c * c * c - 1.0) / 2.0;
-        // Prefix counts of non-zero-opacity LUT entries.
+        // Summed-area counts of non-zero-opacity LUT entries.
         let e = lut.entries();
-        let mut nz = Vec::with_capacity(e.len() + 1);
-        nz.push(0u32);
-        for x in e {
-            let last = *nz.last().unwrap_or(&0);
-            nz.push(last + u32::from(x[3] != 0.0));
+        let n0 = lut.axes()[0].len;
+        let n1 = e.len() / n0;
+        let mut nz = alloc::vec![0usize; (n0 + 1) * (n1 + 1)];
+        for j in 0..n1 {
+            for i in 0..n0 {
+                let here = usize::from(e[i + n0 * j][3] != 0.0);
+                nz[(i + 1) + (n0 + 1) * (j + 1)] =
+                    here + nz[i + (n0 + 1) * (j + 1)] + nz[(i + 1) + (n0 + 1) * j]
+                        - nz[i + (n0 + 1) * j];
+            }
         }
+        let gm = lut
+            .axes()
+            .iter()
+            .any(|a| a.quantity == Quantity::GradMag)
+            .then(|| Linear::new(SkipKind::MaxGradMag, kernel, vol.wtoi()));
         Self::with(
             vol,
             kernel,
             SkipKind::Opacity,
-            Test::Opacity { lut, nz, wneg },
+            Test::Opacity { lut, nz, wneg, gm },
         )
     }
 
@@ -328,12 +345,13 @@ impl<'l> SkipPlan<'l> {
         // reach from voxels in [m, mx] has zero opacity. NaN bounds (a NaN voxel) or
         // infinite ones are never empty.
         let zero_opacity = |m: f32, mx: f32| -> bool {
-            let Test::Opacity { lut, nz, wneg } = &self.test else {
+            let Test::Opacity { lut, nz, wneg, gm } = &self.test else {
                 return false;
             };
             if !(m <= mx) || !m.is_finite() || !mx.is_finite() {
                 return false;
             }
+            let gm_hi = gm.map_or(0.0, |g| f64::from(g.bound(m, mx)));
             let (m, mx) = (m as f64, mx as f64);
             let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
             let (lo, hi) = if kernel == KernelName::Zero {
@@ -342,8 +360,18 @@ impl<'l> SkipPlan<'l> {
             } else {
                 (m - wneg * (mx - m) - margin, mx + wneg * (mx - m) + margin)
             };
-            let (i0, i1) = (lut.index(lo), lut.index(hi));
-            nz[i1 + 1] == nz[i0]
+            // The entries each axis can reach, [first, last].
+            let reach = |a: &crate::classify::LutAxis| match a.quantity {
+                Quantity::Value => (a.index(lo), a.index(hi)),
+                Quantity::GradMag => (a.index(0.0), a.index(gm_hi)),
+                _ => (0, a.len - 1),
+            };
+            let axes = lut.axes();
+            let (i0, i1) = reach(&axes[0]);
+            let (j0, j1) = axes.get(1).map_or((0, 0), reach);
+            let w = axes[0].len + 1;
+            let at = |i: usize, j: usize| nz[i + w * j];
+            at(i1 + 1, j1 + 1) + at(i0, j0) == at(i0, j1 + 1) + at(i1 + 1, j0)
         };
         // Min and max over each fine block's support range (the block's bases plus
         // S − 1 more voxels per axis), separably and one fine slab at a time: along z

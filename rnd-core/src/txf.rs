@@ -5,6 +5,7 @@ use alloc::vec::Vec;
 use core::fmt;
 use core::str::FromStr;
 
+use crate::classify::{LutAxis, Quantity};
 use crate::error::{Error, ErrorKind, Param, Result};
 use crate::math;
 
@@ -307,18 +308,20 @@ impl<'t> LutBuilder<'t> {
     }
 }
 
-/// A 1-D RGBA lookup table over [vmin, vmax] with cell-centred entries: entry i of N
-/// stands for the values of cell [vmin + i·w, vmin + (i + 1)·w), w = (vmax − vmin)/N.
+/// An RGBA lookup table over one or two quantities, with cell-centred entries: along
+/// an axis of N entries over [min, max], entry i stands for the cell
+/// [min + i·w, min + (i + 1)·w), w = (max − min)/N. A 1-D LUT is usually over the value
+/// (`v`); a 2-D one (see [`crate::classify`]) has entry (i, j) at i + N·j.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lut {
-    vmin: f64,
-    vmax: f64,
+    axes: [LutAxis; 2],
+    dims: usize,
     rgba: Vec<[f32; 4]>,
 }
 
 impl Lut {
-    /// Wraps existing entries. Fails unless vmin < vmax are finite and there is at least
-    /// one entry.
+    /// Wraps existing entries of a 1-D LUT over the value. Fails unless vmin < vmax are
+    /// finite and there is at least one entry.
     ///
     /// # Errors
     /// [`ErrorKind::Txf`] for a domain that is not finite min < max, no entries or
@@ -330,19 +333,76 @@ impl Lut {
                 alloc::format!("LUT domain [{vmin}, {vmax}] needs finite min < max"),
             ));
         }
-        if !(vmax - vmin).is_finite() {
+        let axis = LutAxis::new(Quantity::Value, vmin, vmax, rgba.len());
+        Lut::with_axes(&[axis], rgba)
+    }
+
+    /// Wraps existing entries of a LUT over one or two axes (entry (i, j) at i + N·j),
+    /// each axis a different quantity.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Txf`] for no or more than two axes, an axis whose domain is not
+    /// finite min < max or that has no entries, two axes of one quantity, a number of
+    /// entries other than the product of the axes' lengths, or non-finite entries.
+    pub fn with_axes(axes: &[LutAxis], rgba: Vec<[f32; 4]>) -> Result<Lut> {
+        let dims = axes.len();
+        let Some(&first) = axes.first().filter(|_| dims <= 2) else {
             return Err(Error::new(
                 ErrorKind::Txf,
-                alloc::format!("LUT domain [{vmin:e}, {vmax:e}] is wider than a double can hold"),
+                alloc::format!("a LUT has 1 or 2 axes, not {dims}"),
             ));
-        }
+        };
+        let second = axes.get(1).copied().unwrap_or(LutAxis::new(
+            if first.quantity == Quantity::Value {
+                Quantity::GradMag
+            } else {
+                Quantity::Value
+            },
+            0.0,
+            1.0,
+            1,
+        ));
         if rgba.is_empty() {
             return Err(Error::new(ErrorKind::Txf, "LUT has no entries"));
+        }
+        let all = [first, second];
+        let n = Lut::entry_count(&all)?;
+        if rgba.len() != n {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!(
+                    "LUT has {} entries, its axes need {n} ({} x {})",
+                    rgba.len(),
+                    first.len,
+                    second.len
+                ),
+            ));
         }
         if rgba.iter().flatten().any(|x| !x.is_finite()) {
             return Err(Error::new(ErrorKind::Txf, "LUT has non-finite entries"));
         }
-        Ok(Lut { vmin, vmax, rgba })
+        Ok(Lut {
+            axes: all,
+            dims,
+            rgba,
+        })
+    }
+
+    /// The number of entries of a LUT over both `axes` (checked, distinct quantities).
+    pub(crate) fn entry_count(axes: &[LutAxis; 2]) -> Result<usize> {
+        for a in axes {
+            a.check()?;
+        }
+        if axes[0].quantity == axes[1].quantity {
+            return Err(Error::new(
+                ErrorKind::Txf,
+                alloc::format!("both LUT axes are {}", axes[0].quantity),
+            ));
+        }
+        axes[0]
+            .len
+            .checked_mul(axes[1].len)
+            .ok_or_else(|| Error::new(ErrorKind::Memory, "LUT too large to allocate"))
     }
 
     /// A builder of a LUT over the value domain [`vmin`, `vmax`] from colour and opacity
@@ -453,44 +513,61 @@ impl Lut {
             };
             rgba.push([rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, al as f32]);
         }
-        Ok(Lut { vmin, vmax, rgba })
+        Lut::new(vmin, vmax, rgba)
     }
 
-    /// Domain minimum.
+    /// The first axis's domain minimum.
     pub fn vmin(&self) -> f64 {
-        self.vmin
+        self.axes[0].min
     }
-    /// Domain maximum.
+    /// The first axis's domain maximum.
     pub fn vmax(&self) -> f64 {
-        self.vmax
+        self.axes[0].max
     }
-    /// The entries.
+    /// The entries (for two axes, entry (i, j) at i + N·j).
     pub fn entries(&self) -> &[[f32; 4]] {
         &self.rgba
     }
+    /// The axes (one or two).
+    pub fn axes(&self) -> &[LutAxis] {
+        &self.axes[..self.dims]
+    }
+    /// Whether this is a 1-D LUT over the value (opacity a function of the value alone).
+    pub fn by_value(&self) -> bool {
+        self.dims == 1 && self.axes[0].quantity == Quantity::Value
+    }
+    /// Whether classifying needs the gradient.
+    pub fn needs_gradient(&self) -> bool {
+        self.axes().iter().any(|a| a.quantity.needs_gradient())
+    }
+    /// Whether classifying needs second derivatives (a curvature axis).
+    pub fn second_order(&self) -> bool {
+        self.axes().iter().any(|a| a.quantity.second_order())
+    }
 
-    /// Nearest cell-centred entry for value `v`, entry floor((v − vmin)/(vmax − vmin)·N):
-    /// clamped to the domain, no
-    /// interpolation. NaN maps to entry 0.
+    /// Nearest cell-centred entry for value `v` along the first axis (the entry of a
+    /// 1-D LUT): clamped to the domain, no interpolation. NaN maps to entry 0.
     #[inline]
     pub fn lookup(&self, v: f32) -> [f32; 4] {
         self.rgba[self.index(v as f64)]
     }
 
-    /// Entry index for `v`.
+    /// Entry index for `v` along the first axis (the entry of a 1-D LUT):
+    /// floor((v − vmin)/(vmax − vmin)·N) clamped to [0, N − 1]; NaN gives 0.
     #[inline]
     pub fn index(&self, v: f64) -> usize {
-        let len = self.rgba.len();
-        let v = v.clamp(self.vmin, self.vmax);
-        let f = (v - self.vmin) / (self.vmax - self.vmin) * len as f64;
-        // f is in [0, len] (or NaN, for a NaN value): below 1 (and NaN) the entry is
-        // 0, above it truncation is the floor.
-        let i = if f >= 1.0 {
-            crate::simd::trunc_i64(f) as usize
-        } else {
-            0
-        };
-        i.min(len - 1)
+        self.axes[0].index(v)
+    }
+
+    /// Entry index for a sample where the axes' quantities measure `q` (the second
+    /// ignored by a 1-D LUT): i + N·j.
+    #[inline]
+    pub fn entry(&self, q: [f64; 2]) -> usize {
+        let i = self.axes[0].index(q[0]);
+        if self.dims == 1 {
+            return i;
+        }
+        i + self.axes[0].len * self.axes[1].index(q[1])
     }
 }
 

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use rnd_core::classify::{LutAxis, Primitive, Quantity, Shape};
 use rnd_core::light::{Light, LightSpace};
 use rnd_core::txf::{hsv_to_rgb, Levoy, Lut, Txf, TxfSpace};
 
@@ -75,8 +76,8 @@ pub fn txf_from_nrrd(path: &Path, n: Nrrd) -> Result<Txf> {
     Txf::new(space, &refs).map_err(|e| Error::from(e).with_path(path))
 }
 
-/// Loads a LUT (a NRRD or text array): 2-D, 4×N, axis 1 with finite min < max (cell-centred when a
-/// centring is given).
+/// Loads a LUT (a NRRD or text array): 4 × N, or 4 × N × M for a 2-D LUT, each data
+/// axis with finite min < max (cell-centred when a centring is given).
 ///
 /// # Errors
 /// As [`crate::nrrd::read`] and [`lut_from_nrrd`].
@@ -84,17 +85,25 @@ pub fn load_lut(path: &Path) -> Result<Lut> {
     lut_from_nrrd(path, nrrd::read(path)?)
 }
 
-/// [`load_lut`] on an array already read.
+/// [`load_lut`] on an array already read. Axis 0 holds r, g, b, a; each data axis
+/// needs `axis mins/maxs` (its domain) and names its quantity with a label that
+/// [`Quantity::from_label`] reads (`v`, `gm`, `k1`, `k2`, `meancurv`, `gausscurv`, or as
+/// Teem writes them, e.g. `gage(scalar:gm)`). A 4 × N LUT without a label is over `v`.
 ///
 /// # Errors
-/// [`crate::ErrorKind::Format`] when the array is not 4 × N or its domain is missing;
-/// the core's [`rnd_core::ErrorKind::Txf`] for a bad domain or entries.
+/// [`crate::ErrorKind::Format`] when the array is not 4 × N or 4 × N × M, a domain is
+/// missing or a label is missing (2-D) or names no quantity; the core's
+/// [`rnd_core::ErrorKind::Txf`] for a bad domain, two axes of one quantity or bad
+/// entries.
 pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
-    let s = n.sizes();
-    if s.len() != 2 {
+    let s = n.sizes().to_vec();
+    if !(s.len() == 2 || s.len() == 3) {
         return Err(Error::at(
             path,
-            format!("LUT must be 2-D (4 x N), got {}-D", s.len()),
+            format!(
+                "LUT must be 2-D (4 x N) or 3-D (4 x N x M), got {}-D",
+                s.len()
+            ),
         ));
     }
     if s[0] != 4 {
@@ -104,23 +113,57 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
         ));
     }
     let h = &n.header;
-    let (lo, hi) = match (&h.axis_mins, &h.axis_maxs) {
-        (Some(a), Some(b)) => (a[1], b[1]),
-        _ => {
+    let mut axes = Vec::new();
+    for (a, &len) in s.iter().enumerate().skip(1) {
+        let (lo, hi) = match (&h.axis_mins, &h.axis_maxs) {
+            (Some(x), Some(y)) => (x[a], y[a]),
+            _ => {
+                return Err(Error::at(
+                    path,
+                    format!("LUT axis {a} has no axis min/max (its domain)"),
+                ))
+            }
+        };
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
             return Err(Error::at(
                 path,
-                "LUT axis 1 has no axis min/max (the value range)",
-            ))
+                format!("LUT axis {a} range [{lo}, {hi}] needs finite min < max"),
+            ));
         }
-    };
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(Error::at(
-            path,
-            format!("LUT axis 1 range [{lo}, {hi}] needs finite min < max"),
-        ));
-    }
-    if nrrd::centering(h, 1) == Centering::Node {
-        return Err(Error::at(path, "LUT axis 1 must be cell-centred, not node"));
+        if nrrd::centering(h, a) == Centering::Node {
+            return Err(Error::at(
+                path,
+                format!("LUT axis {a} must be cell-centred, not node"),
+            ));
+        }
+        let label = h
+            .labels
+            .as_ref()
+            .and_then(|l| l.get(a))
+            .map(|l| l.trim())
+            .filter(|l| !l.is_empty());
+        let quantity = match label {
+            Some(l) => Quantity::from_label(l).ok_or_else(|| {
+                Error::at(
+                    path,
+                    format!(
+                        "LUT axis {a} label \"{l}\" names no quantity (v gm k1 k2 meancurv \
+                         gausscurv, or gage(scalar:NAME))"
+                    ),
+                )
+            })?,
+            None if s.len() == 2 => Quantity::Value,
+            None => {
+                return Err(Error::at(
+                    path,
+                    format!(
+                        "2-D LUT axis {a} has no label naming its quantity (v gm k1 k2 \
+                         meancurv gausscurv)"
+                    ),
+                ))
+            }
+        };
+        axes.push(LutAxis::new(quantity, lo, hi, len));
     }
     let v = n.data.to_f32();
     if v.iter().any(|x| !x.is_finite()) {
@@ -130,7 +173,101 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])
         .collect();
-    Lut::new(lo, hi, rgba).map_err(|e| Error::from(e).with_path(path))
+    Lut::with_axes(&axes, rgba).map_err(|e| Error::from(e).with_path(path))
+}
+
+/// Most bytes of a 2-D LUT primitives file.
+const PRIMITIVES_LIMIT: u64 = 1 << 20;
+
+/// Loads the primitives of a 2-D LUT ([`Lut::from_primitives`]): one per line, a shape
+/// name, its numbers, then `r g b a` (colour and peak opacity); `#` starts a comment.
+///
+/// ```text
+/// # shape    parameters (x = first axis, y = second)   r   g   b   a
+/// box        x0 x1 y0 y1                               1   1   1   0.3
+/// gauss      cx cy sx sy                               1   0   0   0.8
+/// triangle   v0 w g1 g0                                0   1   0   0.5
+/// arch       va vb top width                           1   1   0   0.6
+/// levoy      v0 r                                      1   1   1   1
+/// ```
+///
+/// # Errors
+/// The file unreadable or too long; a line with an unknown shape, the wrong count of
+/// numbers, or a number that does not parse (each naming the line). The primitives'
+/// values are checked by [`Lut::from_primitives`].
+pub fn load_primitives(path: &Path) -> Result<Vec<Primitive>> {
+    let text = read_text(path, PRIMITIVES_LIMIT)?;
+    parse_primitives(&text).map_err(|m| Error::at(path, m))
+}
+
+/// [`load_primitives`] of text already read; the error is the message (naming the line).
+///
+/// # Errors
+/// As [`load_primitives`].
+pub fn parse_primitives(text: &str) -> std::result::Result<Vec<Primitive>, String> {
+    let mut out = Vec::new();
+    for (no, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        let mut words = line.split_whitespace();
+        let Some(name) = words.next() else { continue };
+        let at = |m: String| format!("line {}: {m}", no + 1);
+        let nums = words
+            .map(|w| {
+                w.parse::<f64>()
+                    .map_err(|_| at(format!("\"{w}\" is not a number")))
+            })
+            .collect::<std::result::Result<Vec<f64>, String>>()?;
+        let params = match name.to_ascii_lowercase().as_str() {
+            "box" => 4,
+            "gauss" => 4,
+            "triangle" => 4,
+            "arch" => 4,
+            "levoy" => 2,
+            _ => {
+                return Err(at(format!(
+                    "unknown primitive \"{name}\" (known: box gauss triangle arch levoy)"
+                )))
+            }
+        };
+        if nums.len() != params + 4 {
+            return Err(at(format!(
+                "{name} takes {params} numbers and then r g b a ({} in all), not {}",
+                params + 4,
+                nums.len()
+            )));
+        }
+        let p = &nums[..params];
+        let shape = match name.to_ascii_lowercase().as_str() {
+            "box" => Shape::Box {
+                lo: [p[0], p[2]],
+                hi: [p[1], p[3]],
+            },
+            "gauss" => Shape::Gaussian {
+                centre: [p[0], p[1]],
+                sigma: [p[2], p[3]],
+            },
+            "triangle" => Shape::Triangle {
+                v0: p[0],
+                w: p[1],
+                g1: p[2],
+                g0: p[3],
+            },
+            "arch" => Shape::Arch {
+                va: p[0],
+                vb: p[1],
+                top: p[2],
+                width: p[3],
+            },
+            _ => Shape::Levoy { v0: p[0], r: p[1] },
+        };
+        let c = &nums[params..];
+        out.push(Primitive {
+            shape,
+            rgb: [c[0], c[1], c[2]],
+            alpha: c[3],
+        });
+    }
+    Ok(out)
 }
 
 /// Loads Levoy iso-contours (isovalue, thickness, opacity): 3 columns `v r a` per line.

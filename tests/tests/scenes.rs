@@ -55,6 +55,93 @@ fn cam(
 /// the f64-geometry engine. The analytic scenes hold for each.
 const ENGINES: [bool; 2] = [true, false];
 
+/// A LUT of the property tests for volumes of value scale `scale`: `kind` 0 is 1-D over
+/// the value; 1 value × gradient magnitude (an arch and a box), 2 the same axes swapped,
+/// 3 value × κ1 (a Gaussian), 4 κ1 × κ2 (a box), 5 1-D over the gradient magnitude.
+fn class_lut(kind: usize, scale: f64, lo: f64, width: f64) -> Lut {
+    use rnd_core::classify::{LutAxis, Primitive, Quantity as Q, Shape};
+    let v = LutAxis::new(Q::Value, -2.0 * scale, 2.0 * scale, 97);
+    let gm = LutAxis::new(Q::GradMag, 0.0, 4.0 * scale, 53);
+    let k = |q| LutAxis::new(q, -3.0, 3.0, 41);
+    let prim = |shape, rgb, alpha| Primitive { shape, rgb, alpha };
+    let (a, b) = ((lo * scale), (lo + width) * scale);
+    let arch = prim(
+        Shape::Arch {
+            va: a - scale,
+            vb: b + scale,
+            top: 1.5 * scale,
+            width: 0.5 * scale,
+        },
+        [1.0, 0.2, 0.1],
+        0.6,
+    );
+    let bx = |x: [f64; 2], y: [f64; 2]| Shape::Box {
+        lo: [x[0], y[0]],
+        hi: [x[1], y[1]],
+    };
+    match kind {
+        1 => Lut::from_primitives(
+            [v, gm],
+            &[
+                arch,
+                prim(bx([a, b], [0.5 * scale, 2.0 * scale]), [0.1, 0.5, 1.0], 0.7),
+            ],
+        ),
+        2 => Lut::from_primitives(
+            [gm, v],
+            &[
+                prim(bx([0.5 * scale, 2.0 * scale], [a, b]), [0.1, 0.5, 1.0], 0.7),
+                arch,
+            ],
+        ),
+        3 => Lut::from_primitives(
+            [v, k(Q::K1)],
+            &[prim(
+                Shape::Gaussian {
+                    centre: [(a + b) / 2.0, -0.5],
+                    sigma: [width * scale, 0.7],
+                },
+                [0.3, 1.0, 0.2],
+                0.8,
+            )],
+        ),
+        4 => Lut::from_primitives(
+            [k(Q::K1), k(Q::K2)],
+            &[prim(bx([-2.0, 0.0], [-2.5, -0.2]), [1.0, 1.0, 0.2], 0.5)],
+        ),
+        5 => Lut::with_axes(
+            &[LutAxis::new(Q::GradMag, 0.0, 4.0 * scale, 64)],
+            (0..64)
+                .map(|i| {
+                    [
+                        1.0,
+                        i as f32 / 64.0,
+                        0.2,
+                        if (20..40).contains(&i) { 0.5 } else { 0.0 },
+                    ]
+                })
+                .collect(),
+        ),
+        _ => {
+            let a = Txf::new(
+                TxfSpace::Alpha,
+                &[&[a, 0.0], &[(a + b) / 2.0, 0.7], &[b, 0.0]],
+            )
+            .unwrap();
+            Lut::generate(
+                None,
+                Some(&a),
+                false,
+                false,
+                1000,
+                -2.0 * scale,
+                2.0 * scale,
+            )
+        }
+    }
+    .unwrap()
+}
+
 fn constant_lut(rgba: [f32; 4]) -> Lut {
     Lut::new(-10.0, 10.0, vec![rgba; 16]).unwrap()
 }
@@ -619,7 +706,9 @@ fn tiny_opacity_over_an_infinite_step_is_transparent() {
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 24, .. Default::default() })]
 
-    /// Empty-space skipping gives exactly the plain path's image on random scenes.
+    /// Empty-space skipping gives exactly the plain path's image on random scenes, with
+    /// 1-D LUTs over the value or the gradient magnitude and 2-D LUTs over value ×
+    /// gradient magnitude (either order), value × κ1 and κ1 × κ2.
     #[test]
     fn empty_space_skipping_is_exact(
         which in proptest::sample::select(vec![2u32, 9, 10, 12, 13, 14]),
@@ -629,13 +718,13 @@ proptest::proptest! {
         fr in proptest::array::uniform3(-6.0f64..6.0),
         lit in proptest::bool::ANY,
         short in proptest::bool::ANY,
+        kind in 0usize..6,
     ) {
         proptest::prop_assume!(fr.iter().map(|x| x * x).sum::<f64>() > 9.0);
         let sv = SdgVolume::new(which, [23, 19, 21], short);
         let (vol, scale) = (sv.vol(), sv.scale());
-        // Opacity only in [lo, lo + width] (in function units).
-        let a = Txf::new(TxfSpace::Alpha, &[&[lo * scale, 0.0], &[(lo + width / 2.0) * scale, 0.7], &[(lo + width) * scale, 0.0]]).unwrap();
-        let lut = Lut::generate(None, Some(&a), false, false, 1000, -2.0 * scale, 2.0 * scale).unwrap();
+        // Opacity only near [lo, lo + width] (in function units) along value axes.
+        let lut = class_lut(kind, scale, lo, width);
         let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
         let mut p = RenderParams::new(cam(fr, [0.0; 3], [0.0, 0.0, 1.0], -2.0, 2.0, [24, 18], false));
         p.plane_sep = 0.02;
@@ -650,7 +739,7 @@ proptest::proptest! {
             let fast = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
             p.skip_empty = false;
             let plain = render(&RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap(), vol, k);
-            proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which} -ref {reference}");
+            proptest::prop_assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{k} w{which} -ref {reference} LUT {kind}");
         }
     }
 }
@@ -985,6 +1074,7 @@ fn loop_case(
     step: f64,
     ortho: bool,
     a1: f32,
+    kind: usize,
 ) -> (Lut, Levoy, [Light; 1], RenderParams) {
     let probe = [
         Probe::Value,
@@ -1016,16 +1106,20 @@ fn loop_case(
         &[&[-scale, 1.0, 0.2, 0.1], &[scale, 0.1, 0.5, 1.0]],
     )
     .unwrap();
-    let lut = Lut::generate(
-        Some(&c),
-        Some(&a),
-        false,
-        false,
-        300,
-        -2.0 * scale,
-        2.0 * scale,
-    )
-    .unwrap();
+    let lut = if kind == 0 {
+        Lut::generate(
+            Some(&c),
+            Some(&a),
+            false,
+            false,
+            300,
+            -2.0 * scale,
+            2.0 * scale,
+        )
+        .unwrap()
+    } else {
+        class_lut(kind, scale, 0.2, 0.4)
+    };
     let lev = Levoy::new(vec![[(0.4 * scale) as f32, 0.5, 0.8]]).unwrap();
     let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
     let [fr, at] = fr_at;
@@ -1074,12 +1168,13 @@ proptest::proptest! {
         short in proptest::bool::ANY,
         levoy in proptest::bool::ANY,
         a1 in proptest::sample::select(vec![1.0f32, 0.9, 0.3]),
+        kind in 0usize..6,
     ) {
         proptest::prop_assume!((0..3).map(|a| (fr[a] - at[a]).powi(2)).sum::<f64>() > 1.0);
         let sv = SdgVolume::new(which, [13, 11, 12], short);
         let (vol, scale) = (sv.vol(), sv.scale());
         let (lut, lev, lights, p) =
-            loop_case(scale, pi, bi, [fr, at], [near, near + depth], step, ortho, a1);
+            loop_case(scale, pi, bi, [fr, at], [near, near + depth], step, ortho, a1, kind);
         let (probe, blend) = (p.probe, p.blend);
         let lev = if levoy { Some(&lev) } else { None };
         let k = KernelName::ALL[ki];
@@ -1094,7 +1189,7 @@ proptest::proptest! {
             let (fast, plain) = fast_and_plain(p, &lut, lev, &lights, vol, k).unwrap();
             proptest::prop_assert!(
                 fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
-                "{k} {probe} {blend} -ref {reference}: {fast:?} vs {plain:?}"
+                "{k} {probe} {blend} -ref {reference} LUT {kind}: {fast:?} vs {plain:?}"
             );
             // The traced one-sample loop (what -db runs) gives the same image too.
             let traced = dispatch(vol, k, TracedImage { spec: &spec });

@@ -48,11 +48,23 @@ pub static SPEC: CmdSpec = CmdSpec {
 /// A picture of `lut`: `len` wide, `h` high, colour composited over a grey background of
 /// horizontal sinusoidal bands (visible where opacity < 1).
 pub fn lut_picture(lut: &Lut, h: usize) -> Vec<u8> {
-    let e = lut.entries();
-    let mut img = Vec::with_capacity(e.len() * h * 3);
+    let len = lut.entries().len();
+    picture(lut.entries(), len, h, |x, _| x)
+}
+
+/// A `w` × `h` picture whose pixel (x, y) (y down) shows entry `entry(x, y)` of `e`
+/// composited over the banded grey background.
+pub fn picture(
+    e: &[[f32; 4]],
+    w: usize,
+    h: usize,
+    entry: impl Fn(usize, usize) -> usize,
+) -> Vec<u8> {
+    let mut img = Vec::with_capacity(w * h * 3);
     for y in 0..h {
         let bg = 0.5 + 0.35 * (2.0 * std::f64::consts::PI * y as f64 / 20.0).sin();
-        for c in e {
+        for x in 0..w {
+            let c = e[entry(x, y)];
             let a = (c[3] as f64).clamp(0.0, 1.0);
             for k in 0..3 {
                 let v = (c[k] as f64).clamp(0.0, 1.0) * a + bg * (1.0 - a);

@@ -31,6 +31,7 @@ mod keval;
 mod klist;
 mod levoy;
 mod lgen;
+mod lgen2;
 mod m4ai;
 mod mgo;
 mod sdg;
@@ -72,6 +73,11 @@ pub static COMMANDS: &[Command] = &[
         spec: &lgen::SPEC,
         aliases: &[],
         run: lgen::run,
+    },
+    Command {
+        spec: &lgen2::SPEC,
+        aliases: &[],
+        run: lgen2::run,
     },
     Command {
         spec: &levoy::SPEC,
