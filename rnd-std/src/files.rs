@@ -176,6 +176,46 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
     Lut::with_axes(&axes, rgba).map_err(|e| Error::from(e).with_path(path))
 }
 
+/// `lut` as a NRRD: float, 4 × N (× M), each data axis with its domain, cell centring
+/// and Teem's label for its quantity (`gage(scalar:v)`, ...), axis 0 labelled `RGBA`,
+/// as `teem-miter -txf` and [`lut_from_nrrd`] read it.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] only if the sizes do not match the entries (they do for
+/// every [`Lut`]).
+pub fn lut_to_nrrd(lut: &Lut, content: Option<String>) -> Result<Nrrd> {
+    let axes = lut.axes();
+    let mut sizes = vec![4];
+    sizes.extend(axes.iter().map(|a| a.len));
+    let data: Vec<f32> = lut.entries().iter().flatten().copied().collect();
+    let mut n = Nrrd::new(sizes, nrrd::Data::F32(data))?;
+    let h = &mut n.header;
+    h.content = content;
+    let all = |first: f64, f: &dyn Fn(&LutAxis) -> f64| {
+        std::iter::once(first)
+            .chain(axes.iter().map(f))
+            .collect::<Vec<f64>>()
+    };
+    h.axis_mins = Some(all(f64::NAN, &|a| a.min));
+    h.axis_maxs = Some(all(f64::NAN, &|a| a.max));
+    h.centerings = Some(
+        std::iter::once(Centering::Unknown)
+            .chain(axes.iter().map(|_| Centering::Cell))
+            .collect(),
+    );
+    h.kinds = Some(
+        std::iter::once("RGBA-color".to_string())
+            .chain(axes.iter().map(|_| "???".to_string()))
+            .collect(),
+    );
+    h.labels = Some(
+        std::iter::once("RGBA".to_string())
+            .chain(axes.iter().map(|a| a.quantity.teem_label().to_string()))
+            .collect(),
+    );
+    Ok(n)
+}
+
 /// Most bytes of a 2-D LUT primitives file.
 const PRIMITIVES_LIMIT: u64 = 1 << 20;
 

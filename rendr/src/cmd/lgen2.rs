@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::{bail, Context};
 use rnd_core::classify::{LutAxis, Quantity};
 use rnd_core::txf::Lut;
-use rnd_std::nrrd::{self, Centering, Data, Nrrd, WriteOptions};
+use rnd_std::nrrd::{self, WriteOptions};
 
 use crate::args::{def, opt, req, Args, CmdSpec};
 
@@ -89,19 +89,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if list.is_empty() {
         eprintln!("rendr lgen2: warning: {prims} has no primitives: the LUT is transparent");
     }
-    let data: Vec<f32> = lut.entries().iter().flatten().copied().collect();
-    let mut n = Nrrd::new(vec![4, n0, n1], Data::F32(data))?;
-    let h = &mut n.header;
-    h.content = Some(super::content("lgen2", a));
-    h.axis_mins = Some(vec![f64::NAN, lo0, lo1]);
-    h.axis_maxs = Some(vec![f64::NAN, hi0, hi1]);
-    h.centerings = Some(vec![Centering::Unknown, Centering::Cell, Centering::Cell]);
-    h.kinds = Some(vec!["RGBA-color".into(), "???".into(), "???".into()]);
-    h.labels = Some(vec![
-        "RGBA".into(),
-        q0.teem_label().into(),
-        q1.teem_label().into(),
-    ]);
+    let n = rnd_std::files::lut_to_nrrd(&lut, Some(super::content("lgen2", a)))?;
     if let Some(pic) = pic {
         // The second quantity grows upwards.
         let img = super::lgen::picture(lut.entries(), n0, n1, |x, y| x + n0 * (n1 - 1 - y));
