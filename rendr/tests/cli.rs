@@ -1852,3 +1852,140 @@ fn write_squared_distance(path: &Path, n: usize) {
     vol.header.space_origin = Some(vec![-c as f64; 3]);
     rnd_std::nrrd::write(&vol, path, Default::default()).unwrap();
 }
+
+/// `lgen2` writes a 2-D LUT that `go -lut` classifies by: over κ1 × κ2 on |x|² (κ = −1/r
+/// with r in [3.1, 5.9] on these rays), a box holding every sample's curvatures makes
+/// every pixel's maximum opacity its 0.5 (corrected for the step), one holding none makes it 0; bad primitive
+/// files and options are one-line errors that leave nothing behind.
+#[test]
+fn lgen2_luts_classify_go() {
+    let d = rnd_tests::tmpdir("lgen2");
+    write_squared_distance(&d.join("sq.nrrd"), 16);
+    std::fs::write(
+        d.join("all.txt"),
+        "# both curvatures in [-0.33, -0.16]\nbox -0.33 -0.16 -0.33 -0.16  1 0 0 0.5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("none.txt"),
+        "box -0.1 0 -0.1 0  1 0 0 0.5 # flatter than any\n",
+    )
+    .unwrap();
+    let lgen2 = |prims: &str, out: &str| {
+        ok(
+            &d,
+            &[
+                "lgen2", "-p", prims, "-q", "k1", "k2", "-mm", "-1", "0", "-1", "0", "-l", "100",
+                "100", "-o", out, "-oi", "pic.png",
+            ],
+        );
+    };
+    lgen2("all.txt", "all.nrrd");
+    let n = rnd_std::nrrd::read(&d.join("all.nrrd")).unwrap();
+    assert_eq!(n.header.sizes, vec![4, 100, 100]);
+    let labels = n.header.labels.clone().unwrap();
+    assert_eq!(labels, ["RGBA", "gage(scalar:k1)", "gage(scalar:k2)"]);
+    assert!(d.join("pic.png").exists());
+    lgen2("none.txt", "none.nrrd");
+    let go = |lut: &str, out: &str| -> Vec<f32> {
+        ok(
+            &d,
+            &[
+                "go", "-i", "sq.nrrd", "-k", "bspln3", "-fr", "2", "-40", "3", "-at", "2", "0",
+                "3", "-up", "0", "0", "1", "-nc", "-4", "-fc", "4", "-fov", "1", "-sz", "5", "5",
+                "-s", "0.3", "-p", "rgba", "-b", "max", "-lut", lut, "-o", out,
+            ],
+        );
+        read_floats(&d.join(out)).1
+    };
+    let all = go("all.nrrd", "a.nrrd");
+    // The opacity corrected for steps of 0.3 (a little longer off-axis, perspective):
+    // 1 − (1 − 0.5)^0.3.
+    let want = 1.0 - 0.5f32.powf(0.3);
+    assert!(
+        all.chunks(4)
+            .all(|px| px[..3] == [1.0, 0.0, 0.0] && (px[3] - want).abs() < 2e-5),
+        "{all:?}"
+    );
+    let none = go("none.nrrd", "n.nrrd");
+    assert!(none.chunks(4).all(|px| px[3] == 0.0), "{none:?}");
+    // Errors.
+    std::fs::write(d.join("bad1.txt"), "box 0 1 0 1 1 1 1 1\nblob 1 2\n").unwrap();
+    std::fs::write(d.join("bad2.txt"), "gauss 0 0 1 1 1 1 1\n").unwrap();
+    std::fs::write(d.join("bad3.txt"), "levoy 0.5 1  1 1 1 1\n").unwrap();
+    let base = |prims: &'static str| {
+        vec![
+            "lgen2", "-p", prims, "-q", "k1", "k2", "-mm", "-1", "0", "-1", "0", "-o", "x.nrrd",
+        ]
+    };
+    fails(
+        &d,
+        &base("bad1.txt"),
+        "bad1.txt: line 2: unknown primitive \"blob\"",
+        Some("x.nrrd"),
+    );
+    fails(
+        &d,
+        &base("bad2.txt"),
+        "line 1: gauss takes 4 numbers and then r g b a (8 in all), not 7",
+        Some("x.nrrd"),
+    );
+    fails(
+        &d,
+        &base("bad3.txt"),
+        "levoy primitive needs axes v and gm (the LUT's are k1 and k2)",
+        Some("x.nrrd"),
+    );
+    let mut same = base("all.txt");
+    same[4] = "k2";
+    fails(&d, &same, "-q: both axes are k2", Some("x.nrrd"));
+    let mut zero = base("all.txt");
+    zero.extend(["-l", "0", "3"]);
+    fails(&d, &zero, "-l: 0 entries along an axis", Some("x.nrrd"));
+    let mut q = base("all.txt");
+    q[4] = "hess";
+    fails(&d, &q, "-q: unknown quantity \"hess\"", Some("x.nrrd"));
+    // A 2-D LUT must say what its axes are.
+    let mut n = rnd_std::nrrd::read(&d.join("all.nrrd")).unwrap();
+    n.header.labels = None;
+    rnd_std::nrrd::write(&n, &d.join("nolabel.nrrd"), Default::default()).unwrap();
+    fails(
+        &d,
+        &[
+            "go",
+            "-i",
+            "sq.nrrd",
+            "-k",
+            "tent",
+            "-fr",
+            "2",
+            "-40",
+            "3",
+            "-at",
+            "2",
+            "0",
+            "3",
+            "-up",
+            "0",
+            "0",
+            "1",
+            "-nc",
+            "-4",
+            "-fc",
+            "4",
+            "-fov",
+            "1",
+            "-sz",
+            "5",
+            "5",
+            "-p",
+            "rgba",
+            "-lut",
+            "nolabel.nrrd",
+            "-o",
+            "x.nrrd",
+        ],
+        "nolabel.nrrd: 2-D LUT axis 1 has no label naming its quantity",
+        Some("x.nrrd"),
+    );
+}
