@@ -124,4 +124,25 @@ if [ -f "$CT" ]; then
   printf '#space:=rgb\n1 1 1  0 0 1  1\n' > front.txt
   go -i "$CT" $CC -fr 363.5 -436.5 227.5 -fov 30 -s 0.5 -us 1 -p rgbalit -b over \
      -lut ct-lut.nrrd -lit front.txt -ph 0.3 0.7 0.3 40 -o "$out/ct-over.png"
+  # 2-D LUTs, next to teem-miter reading the same files (section 2): the CT's middle,
+  # orthographic from -y, unlit (miter: ambient 1 only), every sample inside.
+  if command -v teem-miter > /dev/null; then
+    teem-unu dnorm -i "$CT" -o ct.nrrd
+    printf 'arch 50 450 150 60  1 0.5 0.2 0.3\nbox 500 2000 30 2000  0.9 0.9 1 0.5\n' > vg.txt
+    printf 'box 400 2000 -1 -0.02  0.2 0.4 1 0.6\nbox 400 2000 -0.02 0.02  1 1 1 0.6\nbox 400 2000 0.02 1  1 0.3 0.2 0.6\n' > vk.txt
+    "$R" lgen2 -p vg.txt -q v gm -mm 0 2000 0 400 -l 200 100 -o vg.nrrd -oi "$out/lut2-v-gm.png"
+    "$R" lgen2 -p vk.txt -q v k1 -mm 0 2000 -0.5 0.5 -l 200 100 -o vk.nrrd -oi "$out/lut2-v-k1.png"
+    fov=$(awk 'BEGIN { print 2 * atan2(60, 400) * 180 / 3.14159265358979 }')
+    for l in vg vk; do
+      go -i ct.nrrd -fr 63.5 -336.5 127.5 -at 63.5 63.5 127.5 -up 0 0 1 -ortho -nc -60 -fc 60 \
+         -fov "$fov" -sz 240 240 -k bspln3 -p rgba -b over -s 1 -us 1 -a1 0.99 -lut $l.nrrd \
+         -o r.nrrd
+      teem-miter -i ct.nrrd -txf $l.nrrd -fr 63.5 -336.5 127.5 -at 63.5 63.5 127.5 -up 0 0 1 \
+         -rh -or -ar -dn -60 -di 0 -df 60 -ur -60 60 -vr -60 60 -is 240 240 -k00 bspln3 \
+         -k11 bspln3d -k22 bspln3dd -step 1 -ref 1 -n1 0.99 -ads 1 0 0 -nt 2 -o m.nrrd 2> /dev/null
+      teem-overrgb -i r.nrrd -b 0 0 0 -o "$out/lut2-$l-rendr.png"
+      teem-unu crop -i m.nrrd -min 0 0 0 -max 3 M M | teem-unu convert -t float -o m4.nrrd
+      teem-overrgb -i m4.nrrd -b 0 0 0 -o "$out/lut2-$l-miter.png"
+    done
+  fi
 fi

@@ -17,6 +17,7 @@ use rnd_core::kernel::Kernel;
 use rnd_core::march::Loop;
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::voxel::Voxel;
+use rnd_core::classify::{LutAxis, Quantity};
 use rnd_core::txf::{Levoy, Lut};
 use rnd_core::volume::Volume;
 
@@ -84,6 +85,20 @@ fuzz_target!(|data: &[u8]| {
     let lev = Levoy::new(vec![[b.f64() as f32, b.f64() as f32, b.f64() as f32]]).ok();
     let lights: Vec<Light> = Light::new([1.0, 0.9, 0.8], [b.f64(), b.f64(), b.f64()], if b.u8() % 2 == 0 { LightSpace::View } else { LightSpace::World }).into_iter().collect();
     let kernel = KernelName::ALL[(b.u8() % 7) as usize];
+    // Sometimes a LUT over other quantities, or over two (read last, so that older
+    // inputs keep their meaning).
+    let lut = match b.u8() % 3 {
+        0 => lut,
+        dims => {
+            let mut axis = |b: &mut Bytes| {
+                let q = Quantity::ALL[b.u8() as usize % Quantity::ALL.len()];
+                LutAxis::new(q, b.f64(), b.f64(), 1 + b.u8() as usize % 5)
+            };
+            let axes: Vec<LutAxis> = (0..dims).map(|_| axis(&mut b)).collect();
+            let n = axes.iter().map(|a| a.len).product();
+            Lut::with_axes(&axes, (0..n).map(|_| [b.f64() as f32, 0.5, 0.2, b.f64() as f32]).collect()).ok()
+        }
+    };
     // Don't let the fuzzer ask for millions of samples per ray.
     if p.plane_sep > 0.0 && (p.camera.far - p.camera.near) / p.plane_sep > 2000.0 {
         return;

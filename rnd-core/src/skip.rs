@@ -4,7 +4,9 @@
 //!
 //! - `over` of a colour probe: blocks where the LUT opacity is zero for every value the
 //!   convolution can reach (a skipped sample would add nothing; its "inside" status,
-//!   which decides outsideValue, is kept). Fine blocks (4 support starts per axis)
+//!   which decides outsideValue, is kept); for a LUT over two quantities, for every
+//!   pair it can reach: the reachable values × [0, the block's gradient-magnitude bound]
+//!   (the bound `max` renders of `gm` use), any curvature. Fine blocks (4 support starts per axis)
 //!   decide single samples; coarse blocks (8 per axis, every fine block inside empty)
 //!   carry the distance map that long jumps use.
 //! - `max` of the value or the gradient magnitude: an upper bound on the quantity per

@@ -31,7 +31,10 @@ pub static SPEC: CmdSpec = CmdSpec {
            row-major), k1 k2 (principal curvatures k1 >= k2 of the isosurface, normal = \
            -gradient/|gradient|, as Teem's gage), meancurv ((k1+k2)/2), gausscurv \
            (k1*k2), rgba (LUT colour and opacity), rgbalit (rgba lit by Blinn-Phong, \
-           depth-cued). The second-order probes (hess and the curvatures) are summed in \
+           depth-cued). The LUT (-lut) classifies by the value (\"rendr lgen\"), or by the \
+           quantity its axis label names, or by two of them (4 x N x M, \"rendr lgen2\"): \
+           v, gm, k1, k2, meancurv, gausscurv (labels as Teem's miter writes them, \
+           gage(scalar:gm), are read too). The second-order probes (hess and the curvatures) are summed in \
            f64 from the kernel's second derivative at the arithmetic's sample positions.\n\
            Blends, per channel over the ray's counted samples x1..xN (inside the volume \
            for the convolved probes; a ray with none gets -ov): max, min (NaN samples \
@@ -116,7 +119,7 @@ pub static SPEC: CmdSpec = CmdSpec {
                 &["lut"],
                 1,
                 "lut",
-                "lookup table from \"rendr lgen\" (needed for rgba, rgbalit)",
+                "lookup table from \"rendr lgen\" or \"rendr lgen2\" (needed for rgba, rgbalit)",
             ),
             opt(
                 &["lev"],
