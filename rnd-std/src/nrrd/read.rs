@@ -236,13 +236,13 @@ fn header_string(b: &[u8]) -> Result<String> {
     })
 }
 
-/// Reads an attached-header NRRD with raw, gzip or bzip2 data straight from the file into
-/// typed samples, so a volume needs its own size in memory and not twice that. Returns
-/// None for everything else (text arrays, detached headers, ascii/hex data), which
-/// [`read_from`] reads.
+/// Reads a NRRD with raw, gzip or bzip2 data straight from the file into typed samples,
+/// so a volume needs its own size in memory and not twice that: attached data, or a
+/// detached header naming one regular data file. Returns None for everything else (text
+/// arrays, several or non-regular data files, ascii/hex data), which [`read_from`]
+/// reads. Errors about the data of a detached header name the data file.
 fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
-    let file_len = f.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let mut r = std::io::BufReader::with_capacity(1 << 16, f);
     let head = r.fill_buf().map_err(|e| Error::io(path, "can't read", e))?;
     if !head.starts_with(b"NRRD") {
@@ -251,9 +251,38 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     let text = read_header_text(&mut r)?;
     let (parsed, data_file) = parse_header(&text)?;
     let enc = parsed.encoding;
-    if data_file.is_some() || !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2) {
+    if !matches!(enc, Encoding::Raw | Encoding::Gzip | Encoding::Bzip2) {
         return Ok(None);
     }
+    let Some(files) = data_file else {
+        return stream_data(r, parsed, path, threads).map(Some);
+    };
+    let [one] = files.as_slice() else {
+        return Ok(None);
+    };
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let p = data_path(&dir, one);
+    if !std::fs::metadata(&p).is_ok_and(|m| m.is_file()) {
+        // Missing, a directory or a stream: read_from says what is wrong or reads it.
+        return Ok(None);
+    }
+    let f = std::fs::File::open(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
+    let r = std::io::BufReader::with_capacity(1 << 16, f);
+    stream_data(r, parsed, &p, threads)
+        .map(Some)
+        .map_err(|e| e.with_path(&p))
+}
+
+/// Reads the data [`read_streaming`] reads from `r` (positioned at the data's start,
+/// before the header's skips), `path` naming it in errors.
+fn stream_data(
+    mut r: std::io::BufReader<std::fs::File>,
+    parsed: Parsed,
+    path: &Path,
+    threads: usize,
+) -> Result<Nrrd> {
+    let enc = parsed.encoding;
+    let file_len = r.get_ref().metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
     if parsed.skips.byte == -1 {
@@ -283,7 +312,7 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         let data = read_raw_parallel(r.get_ref(), off, parsed.scalar, parsed.endian, n, threads)
             .map_err(|e| Error::io(path, "can't read", e))?;
         let Parsed { header, .. } = parsed;
-        return Ok(Some(Nrrd { header, data }));
+        return Ok(Nrrd { header, data });
     }
     let mut src: Box<dyn Read> = match enc {
         Encoding::Gzip => crate::codec::gunzip(r).map_err(|e| e.with_path(path))?,
@@ -320,7 +349,7 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         check_stream_end(&mut src, enc)?;
     }
     let Parsed { header, .. } = parsed;
-    Ok(Some(Nrrd { header, data }))
+    Ok(Nrrd { header, data })
 }
 
 /// Passes over the header's line and byte skips without keeping them: lines within
