@@ -49,7 +49,7 @@ impl ConvoTask for Traced<'_, '_> {
         let mut img = vec![0.0f32; (w * h) as usize * len];
         for (px, out) in img.chunks_mut(len).enumerate() {
             let mut ignore = |_: &SampleInfo| {};
-            self.0.cast::<V, K, S>(vol, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
+            self.0.cast(vol.into(), K::NAME, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
         }
         img
     }
@@ -90,7 +90,7 @@ fuzz_target!(|data: &[u8]| {
     let lut = match b.u8() % 3 {
         0 => lut,
         dims => {
-            let mut axis = |b: &mut Bytes| {
+            let axis = |b: &mut Bytes| {
                 let q = Quantity::ALL[b.u8() as usize % Quantity::ALL.len()];
                 LutAxis::new(q, b.f64(), b.f64(), 1 + b.u8() as usize % 5)
             };

@@ -82,7 +82,9 @@ pub mod prelude {
     pub use crate::kernel::KernelName;
     pub use crate::light::{Light, LightSpace, Phong};
     pub use crate::probe::Probe;
-    pub use crate::render::{render, AnyVolume, Probed, RenderParams, RenderSpec};
+    #[cfg(not(test))] // see `RenderSpec::cast`
+    pub use crate::render::render;
+    pub use crate::render::{AnyVolume, Probed, RenderParams, RenderSpec};
     pub use crate::txf::{Levoy, Lut, LutBuilder, Txf, TxfSpace};
     pub use crate::volume::{OwnedVolume, Volume};
     pub use crate::voxel::Voxel;

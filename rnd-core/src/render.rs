@@ -544,26 +544,105 @@ impl<'a> RenderSpec<'a> {
         }
     }
 
-    /// Casts the ray through pixel (hi, vi) of `vol` (kernel `K`) with `mode` and writes
-    /// its probe-length result to `out`; `trace`, when given, sees every sample. Both
-    /// loops give the same bits.
-    pub fn cast<V: Voxel, K: Kernel<S>, const S: usize>(
+    /// Casts the ray through pixel (hi, vi) of `vol` with kernel `kernel` and `mode`, and
+    /// writes its probe-length result to `out`; `trace`, when given, sees every sample.
+    /// Both loops give the same bits.
+    ///
+    /// Not generic: the loops are compiled once, in this crate, for every voxel type,
+    /// kernel and arithmetic, not again in each crate that renders.
+    // Left out of this crate's unit-test build (which renders only through `rows_in`):
+    // the loops for every voxel type, kernel and arithmetic are most of rnd-core's
+    // build time, and the integration tests and the library itself build them anyway.
+    #[cfg(not(test))]
+    #[allow(clippy::too_many_arguments)]
+    pub fn cast(
         &self,
-        vol: Volume<'_, V>,
+        vol: AnyVolume<'_>,
+        kernel: KernelName,
         hi: u32,
         vi: u32,
         out: &mut [f32],
         mode: Loop,
         trace: Trace<'_>,
     ) {
-        self.with_march::<V, K, S, ()>(vol, None, |m| m.cast(hi, vi, out, mode, trace));
+        struct One<'r, 's, 'a, 't> {
+            spec: &'s RenderSpec<'a>,
+            px: [u32; 2],
+            out: &'r mut [f32],
+            mode: Loop,
+            trace: Trace<'t>,
+        }
+        impl ConvoTask for One<'_, '_, '_, '_> {
+            type Output = ();
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
+                let One {
+                    spec,
+                    px: [hi, vi],
+                    out,
+                    mode,
+                    trace,
+                } = self;
+                spec.with_march::<V, K, S, ()>(vol, None, |m| m.cast(hi, vi, out, mode, trace));
+            }
+        }
+        let task = One {
+            spec: self,
+            px: [hi, vi],
+            out,
+            mode,
+            trace,
+        };
+        dispatch(vol, kernel, task);
     }
 
-    /// Renders image rows `rows` of `vol` (kernel `K`) into `out` (`channels` floats per
-    /// pixel, rows consecutive), skipping empty space by `skip` (an `over` render's grid
-    /// from [`RenderSpec::skip_grid`]). `clock`, when given, returns milliseconds and
-    /// fills the time channel.
-    pub fn render_rows<V: Voxel, K: Kernel<S>, const S: usize>(
+    /// Renders image rows `rows` of `vol` with kernel `kernel` into `out` (`channels`
+    /// floats per pixel, rows consecutive), skipping empty space by `skip` (a grid from
+    /// [`RenderSpec::skip_grid`]; one made for another render or volume is ignored).
+    /// `clock`, when given, returns milliseconds and fills the time channel.
+    ///
+    /// Not generic, as [`RenderSpec::cast`].
+    #[cfg(not(test))] // as for `cast`
+    pub fn render_rows(
+        &self,
+        vol: AnyVolume<'_>,
+        kernel: KernelName,
+        skip: Option<&SkipGrid>,
+        rows: core::ops::Range<u32>,
+        out: &mut [f32],
+        clock: Option<&dyn Fn() -> f64>,
+    ) {
+        struct Rows<'r, 's, 'a, 'c> {
+            spec: &'s RenderSpec<'a>,
+            skip: Option<&'s SkipGrid>,
+            rows: core::ops::Range<u32>,
+            out: &'r mut [f32],
+            clock: Option<&'c dyn Fn() -> f64>,
+        }
+        impl ConvoTask for Rows<'_, '_, '_, '_> {
+            type Output = ();
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
+                let Rows {
+                    spec,
+                    skip,
+                    rows,
+                    out,
+                    clock,
+                } = self;
+                spec.rows_in::<V, K, S>(vol, skip, rows, out, clock);
+            }
+        }
+        let task = Rows {
+            spec: self,
+            skip,
+            rows,
+            out,
+            clock,
+        };
+        dispatch(vol, kernel, task);
+    }
+
+    /// [`RenderSpec::render_rows`] with the voxel type and kernel known.
+    pub(crate) fn rows_in<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,
         vol: Volume<'_, V>,
         skip: Option<&SkipGrid>,
@@ -635,15 +714,9 @@ pub enum AnyVolume<'a> {
     I16(Volume<'a, i16>),
 }
 
-impl<'a> From<Volume<'a, f32>> for AnyVolume<'a> {
-    fn from(v: Volume<'a, f32>) -> Self {
-        AnyVolume::F32(v)
-    }
-}
-
-impl<'a> From<Volume<'a, i16>> for AnyVolume<'a> {
-    fn from(v: Volume<'a, i16>) -> Self {
-        AnyVolume::I16(v)
+impl<'a, V: Voxel> From<Volume<'a, V>> for AnyVolume<'a> {
+    fn from(v: Volume<'a, V>) -> Self {
+        V::any(v)
     }
 }
 
@@ -766,6 +839,7 @@ fn too_large(w: u32, h: u32) -> Error {
 /// # Errors
 /// [`ErrorKind::Volume`] when the volume fails [`RenderSpec::check_volume`];
 /// [`ErrorKind::Memory`] when the image cannot be allocated.
+#[cfg(not(test))] // as for `RenderSpec::cast`
 pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> Result<Vec<f32>> {
     struct Whole<'s, 'a>(&'s RenderSpec<'a>, Vec<f32>);
     impl ConvoTask for Whole<'_, '_> {
@@ -773,7 +847,7 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
         fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
             let Whole(spec, mut out) = self;
             let skip = spec.skip_grid(&vol, K::NAME);
-            spec.render_rows::<V, K, S>(vol, skip.as_ref(), 0..spec.size()[1], &mut out, None);
+            spec.rows_in::<V, K, S>(vol, skip.as_ref(), 0..spec.size()[1], &mut out, None);
             out
         }
     }

@@ -725,7 +725,7 @@ mod tests {
         use crate::affine::Affine4;
         use crate::blend::Blend;
         use crate::camera::CameraSpec;
-        use crate::kernel::{Bspln3, KernelName};
+        use crate::kernel::KernelName;
         use crate::probe::Probe;
         use crate::render::{RenderParams, RenderSpec};
         use crate::volume::Volume;
@@ -753,7 +753,7 @@ mod tests {
             let mut g = spec.skip_grid(&vol, KernelName::Bspln3).unwrap();
             let img = |g: Option<&SkipGrid>| {
                 let mut out = alloc::vec![0.0f32; 8 * 6 * spec.channels()];
-                spec.render_rows::<f32, Bspln3, 4>(vol, g, 0..6, &mut out, None);
+                spec.rows_in::<f32, crate::kernel::Bspln3, 4>(vol, g, 0..6, &mut out, None);
                 out
             };
             let (plain, skip) = (img(None), img(Some(&g)));

@@ -45,6 +45,8 @@ pub trait Voxel: crate::simd::Load + Copy + Send + Sync + Default + PartialOrd +
     fn as_f32_slice(_s: &[Self]) -> Option<&[f32]> {
         None
     }
+    /// `vol` as the [`AnyVolume`](crate::render::AnyVolume) of its voxel type.
+    fn any(vol: crate::volume::Volume<'_, Self>) -> crate::render::AnyVolume<'_>;
 }
 
 impl Voxel for f32 {
@@ -71,6 +73,9 @@ impl Voxel for f32 {
     fn as_f32_slice(s: &[f32]) -> Option<&[f32]> {
         Some(s)
     }
+    fn any(vol: crate::volume::Volume<'_, f32>) -> crate::render::AnyVolume<'_> {
+        crate::render::AnyVolume::F32(vol)
+    }
 }
 
 impl Voxel for i16 {
@@ -88,5 +93,8 @@ impl Voxel for i16 {
     #[inline(always)]
     fn to_f32(self) -> f32 {
         self as f32
+    }
+    fn any(vol: crate::volume::Volume<'_, i16>) -> crate::render::AnyVolume<'_> {
+        crate::render::AnyVolume::I16(vol)
     }
 }

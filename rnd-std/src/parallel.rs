@@ -185,8 +185,9 @@ pub fn render_with(
                 let Some((b, chunk)) = next else { break };
                 let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
                 let n = rows.len();
-                spec.render_rows::<V, K, S>(
-                    vol,
+                spec.render_rows(
+                    vol.into(),
+                    K::NAME,
                     skip.as_ref(),
                     rows,
                     chunk,

@@ -190,8 +190,9 @@ impl rnd_core::render::ConvoTask for Trace<'_, '_> {
         let mut cb = |s: &rnd_core::march::SampleInfo| all.push(*s);
         let mut out = [0.0f32; rnd_core::blend::MAX_CHANNELS];
         let [h, v] = self.px;
-        self.spec.cast::<V, K, S>(
-            vol,
+        self.spec.cast(
+            vol.into(),
+            K::NAME,
             h,
             v,
             &mut out,

@@ -66,8 +66,9 @@ impl ConvoTask for NearestBoundary<'_, '_> {
             }
         };
         let mut out = [0.0f32; 4];
-        self.spec.cast::<V, K, S>(
-            vol,
+        self.spec.cast(
+            vol.into(),
+            K::NAME,
             self.px[0],
             self.px[1],
             &mut out,

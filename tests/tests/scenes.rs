@@ -1261,8 +1261,15 @@ impl ConvoTask for TracedImage<'_, '_> {
                 let i = (vi * w + hi) as usize * len;
                 let mut ignore = |_: &SampleInfo| {};
                 let px = &mut img[i..i + len];
-                self.spec
-                    .cast::<V, K, S>(vol, hi, vi, px, Loop::OneSample, Some(&mut ignore));
+                self.spec.cast(
+                    vol.into(),
+                    K::NAME,
+                    hi,
+                    vi,
+                    px,
+                    Loop::OneSample,
+                    Some(&mut ignore),
+                );
             }
         }
         img

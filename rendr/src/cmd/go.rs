@@ -261,7 +261,15 @@ impl ConvoTask for Trace<'_, '_> {
                 s.accum.count
             );
         };
-        spec.cast::<V, K, S>(vol, hi, vi, &mut out, Loop::OneSample, Some(&mut cb));
+        spec.cast(
+            vol.into(),
+            K::NAME,
+            hi,
+            vi,
+            &mut out,
+            Loop::OneSample,
+            Some(&mut cb),
+        );
         let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
         outln!("result: {}", list6(&r));
     }
