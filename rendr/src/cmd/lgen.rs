@@ -91,17 +91,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     }
     // Outputs prepared first: neither may be an input, nor the other output.
     let inputs = [files[0].as_str(), files[1].as_str()];
-    let o = a.get_str("o").unwrap_or_default();
-    let out = super::output(&o, a, &inputs).context("-o")?;
-    let pic = match a.get_str("oi") {
-        Some(oi) => {
-            if oi != "-" && rnd_std::output::same_file(Path::new(&oi), Path::new(&o)) || oi == o {
-                bail!("-oi {oi}: the picture would overwrite the LUT output -o");
-            }
-            Some(super::output(&oi, a, &inputs).context("-oi")?)
-        }
-        None => None,
-    };
+    let (out, pic) = super::lut_outputs(a, &inputs)?;
     let load = |f: &str| -> anyhow::Result<_> {
         Ok(if f == "x" {
             None

@@ -69,17 +69,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         bail!("-q: both axes are {q0}");
     }
     // Outputs prepared first: neither may be the input, nor the other output.
-    let o = a.get_str("o").unwrap_or_default();
-    let out = super::output(&o, a, &[prims.as_str()]).context("-o")?;
-    let pic = match a.get_str("oi") {
-        Some(oi) => {
-            if oi != "-" && rnd_std::output::same_file(Path::new(&oi), Path::new(&o)) || oi == o {
-                bail!("-oi {oi}: the picture would overwrite the LUT output -o");
-            }
-            Some(super::output(&oi, a, &[prims.as_str()]).context("-oi")?)
-        }
-        None => None,
-    };
+    let (out, pic) = super::lut_outputs(a, &[prims.as_str()])?;
     let list = rnd_std::files::load_primitives(Path::new(&prims))?;
     let axes = [
         LutAxis::new(q0, lo0, hi0, n0),

@@ -158,3 +158,30 @@ pub fn output(path: &str, a: &Args, inputs: &[&str]) -> anyhow::Result<rnd_std::
         &all,
     )?)
 }
+
+/// The LUT output `-o` and, when given, its picture `-oi` (lgen, lgen2), prepared before
+/// any work: neither may be one of `inputs`, and the picture may not be the LUT.
+pub fn lut_outputs(
+    a: &Args,
+    inputs: &[&str],
+) -> anyhow::Result<(rnd_std::output::Output, Option<rnd_std::output::Output>)> {
+    use anyhow::Context;
+    let o = a.get_str("o").unwrap_or_default();
+    let out = output(&o, a, inputs).context("-o")?;
+    let pic = match a.get_str("oi") {
+        Some(oi) => {
+            let same = oi == o
+                || oi != "-"
+                    && rnd_std::output::same_file(
+                        std::path::Path::new(&oi),
+                        std::path::Path::new(&o),
+                    );
+            if same {
+                anyhow::bail!("-oi {oi}: the picture would overwrite the LUT output -o");
+            }
+            Some(output(&oi, a, inputs).context("-oi")?)
+        }
+        None => None,
+    };
+    Ok((out, pic))
+}
