@@ -274,14 +274,14 @@ impl Accum {
     /// Final values into `out[..len]`; `outside` when nothing was blended. `kept` holds
     /// the median's samples (reordered here; without them the median is NaN); the other
     /// blends ignore it.
-    #[inline]
-    pub fn finish(&self, outside: f32, mut kept: Option<&mut Kept>, out: &mut [f32]) {
+    #[inline(always)]
+    pub fn finish(&self, outside: f32, kept: Option<&mut Kept>, out: &mut [f32]) {
         let len = self.len.min(MAX_CHANNELS).min(out.len());
         if self.count == 0 {
             out[..len].fill(outside);
             return;
         }
-        let n = self.count as f64;
+        // The common blends here (inlined into every ray's end), the statistics apart.
         match self.blend {
             Blend::Max | Blend::Min | Blend::Sum => out[..len].copy_from_slice(&self.acc[..len]),
             Blend::Mean => {
@@ -290,6 +290,22 @@ impl Accum {
                     out[c] = self.acc[c] / n;
                 }
             }
+            Blend::Over => {
+                let a = self.acc[3];
+                for c in 0..3 {
+                    out[c] = if a > 0.0 { self.acc[c] / a } else { 0.0 };
+                }
+                out[3] = a;
+            }
+            _ => self.finish_statistic(kept, &mut out[..len]),
+        }
+    }
+
+    /// [`Accum::finish`] of `l2`, `variance`, `sd` and `median` (at least one sample).
+    #[inline(never)]
+    fn finish_statistic(&self, mut kept: Option<&mut Kept>, out: &mut [f32]) {
+        let (n, len) = (self.count as f64, out.len());
+        match self.blend {
             Blend::L2 => {
                 for c in 0..len {
                     out[c] = crate::math::sqrt(self.sums[c][1]) as f32;
@@ -314,13 +330,7 @@ impl Accum {
                         .map_or(f32::NAN, |k| median(&mut k.chans[c]));
                 }
             }
-            Blend::Over => {
-                let a = self.acc[3];
-                for c in 0..3 {
-                    out[c] = if a > 0.0 { self.acc[c] / a } else { 0.0 };
-                }
-                out[3] = a;
-            }
+            _ => {}
         }
     }
 }

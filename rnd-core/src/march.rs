@@ -19,7 +19,6 @@ use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
 use crate::skip::{SkipGrid, SkipKind, COARSE_EMPTY, FINE_EMPTY};
-use crate::txf::Lut;
 
 /// Which loop casts a ray (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -352,51 +351,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             return false;
         }
         let sp = self.spec;
-        let mut res = [[0.0f32; 4]; N];
-        if sp.second && sp.params.probe.is_colour() {
-            // A LUT with a curvature axis: the f32 sums as for any colour probe, and the
-            // principal curvatures from the f64 second-order sums.
-            self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
-            for i in 0..m {
-                let curv = self
-                    .a
-                    .second(b.n[i], b.f[i])
-                    .curvatures(sp.params.curv_min_grad);
-                if self.take::<G>(ray, st, b.k[i], res[i], curv) {
-                    return true;
-                }
-            }
-            return false;
-        }
         if sp.second {
-            // f64 sums of the kernels' formulas at each placement (the trace also sees
-            // the f32 sums the other probes use).
-            let tracing = st.trace.is_some();
-            if tracing {
-                self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
-            }
-            for i in 0..m {
-                let so = self.a.second(b.n[i], b.f[i]);
-                let mut pr = [0.0f32; MAX_CHANNELS];
-                self.second_probe(&so, &mut pr);
-                self.add(st, &pr);
-                if tracing {
-                    self.emit(ray, b.k[i], st, Some(res[i]), pr, true);
-                }
-            }
-            return false;
+            return self.flush_second::<G, N>(ray, st, b, m);
         }
+        let mut res = [[0.0f32; 4]; N];
         // Under `over` without Levoy opacity a sample's opacity depends on its value
         // alone, so the gradient is needed only where the opacity is not zero. The value
         // is the same bits with or without the gradient.
-        if let (true, Blend::Over, None, Some(lut), false, true) = (
-            G,
-            sp.params.blend,
-            sp.levoy,
-            sp.lut,
-            st.trace.is_some(),
-            sp.lut.is_some_and(Lut::by_value),
-        ) {
+        if let (true, Some(lut)) = (G && sp.value_opacity && st.trace.is_none(), sp.lut) {
             self.a.convolve::<false, N>(&b.n, &b.f, m, &mut res);
             // The samples that are not transparent, convolved again with the gradient.
             let mut keep = [0usize; N];
@@ -425,6 +387,51 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
         self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
         self.blend_batch::<G, N>(ray, st, &b.k, m, &res)
+    }
+
+    /// [`March::flush`] of `m` samples that need second derivatives: a second-order
+    /// probe, or a colour probe whose LUT has a curvature axis.
+    #[inline(never)]
+    fn flush_second<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        b: &Batch<A::Frac, N>,
+        m: usize,
+    ) -> bool {
+        let sp = self.spec;
+        let mut res = [[0.0f32; 4]; N];
+        if sp.params.probe.is_colour() {
+            // A LUT with a curvature axis: the f32 sums as for any colour probe, and the
+            // principal curvatures from the f64 second-order sums.
+            self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
+            for i in 0..m {
+                let curv = self
+                    .a
+                    .second(b.n[i], b.f[i])
+                    .curvatures(sp.params.curv_min_grad);
+                if self.take::<G>(ray, st, b.k[i], res[i], curv) {
+                    return true;
+                }
+            }
+            return false;
+        }
+        // f64 sums of the kernels' formulas at each placement (the trace also sees the
+        // f32 sums the other probes use).
+        let tracing = st.trace.is_some();
+        if tracing {
+            self.a.convolve::<G, N>(&b.n, &b.f, m, &mut res);
+        }
+        for i in 0..m {
+            let so = self.a.second(b.n[i], b.f[i]);
+            let mut pr = [0.0f32; MAX_CHANNELS];
+            self.second_probe(&so, &mut pr);
+            self.add(st, &pr);
+            if tracing {
+                self.emit(ray, b.k[i], st, Some(res[i]), pr, true);
+            }
+        }
+        false
     }
 
     /// Probes and blends the first `m` convolved samples (numbers `ks`, sums `res`) in
@@ -570,7 +577,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Probe::GradMag => out[0] = gmag(gw),
             Probe::Rgba | Probe::RgbaLit => {
                 let Some(lut) = sp.lut else { return false };
-                let i = if lut.by_value() {
+                let i = if sp.lut_by_value {
                     lut.index(v as f64)
                 } else {
                     let gm = f64::from(gmag(gw));

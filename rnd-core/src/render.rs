@@ -147,6 +147,12 @@ pub struct RenderSpec<'a> {
     pub(crate) need_grad: bool,
     /// Whether samples need second derivatives (curvature probes or LUT axes).
     pub(crate) second: bool,
+    /// Whether the colour probe's LUT is 1-D over the value (its entry needs the value
+    /// alone).
+    pub(crate) lut_by_value: bool,
+    /// `over` of a value-only LUT without Levoy opacity: a sample's opacity depends on
+    /// its value alone, so the gradient is needed only where it is not zero.
+    pub(crate) value_opacity: bool,
     pub(crate) once: bool,
     /// Sample numbers beyond this are past the far plane on every ray.
     pub(crate) kmax: u32,
@@ -287,6 +293,8 @@ impl<'a> RenderSpec<'a> {
         // whose LUT classifies by curvature.
         let second = params.probe.second_order()
             || (params.probe.is_colour() && lut.is_some_and(Lut::second_order));
+        let lut_by_value = lut.is_some_and(Lut::by_value);
+        let value_opacity = params.blend == Blend::Over && levoy.is_none() && lut_by_value;
         let channels = params.probe.length() + usize::from(params.time);
         let ref_cam = RefCamera::new(&params.camera);
         let lights = if params.reference {
@@ -351,6 +359,8 @@ impl<'a> RenderSpec<'a> {
             channels,
             need_grad,
             second,
+            lut_by_value,
+            value_opacity,
             once,
             kmax,
             depth_cue,
