@@ -13,10 +13,8 @@ use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::probe::Probe;
-use rnd_core::kernel::Kernel;
 use rnd_core::march::Loop;
-use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
-use rnd_core::voxel::Voxel;
+use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::classify::{LutAxis, Quantity};
 use rnd_core::txf::{Levoy, Lut};
 use rnd_core::volume::Volume;
@@ -40,19 +38,15 @@ impl Bytes<'_> {
 }
 
 /// Every pixel through `RenderSpec::cast` with `Loop::OneSample` and a (no-op) trace.
-struct Traced<'s, 'a>(&'s RenderSpec<'a>);
-impl ConvoTask for Traced<'_, '_> {
-    type Output = Vec<f32>;
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
-        let [w, h] = self.0.size();
-        let len = self.0.params().probe.length();
-        let mut img = vec![0.0f32; (w * h) as usize * len];
-        for (px, out) in img.chunks_mut(len).enumerate() {
-            let mut ignore = |_: &SampleInfo| {};
-            self.0.cast(vol.into(), K::NAME, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
-        }
-        img
+fn traced(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> Vec<f32> {
+    let [w, h] = spec.size();
+    let len = spec.params().probe.length();
+    let mut img = vec![0.0f32; (w * h) as usize * len];
+    for (px, out) in img.chunks_mut(len).enumerate() {
+        let mut ignore = |_: &SampleInfo| {};
+        spec.cast(vol, kernel, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
     }
+    img
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -131,7 +125,7 @@ fuzz_target!(|data: &[u8]| {
     if p.outside.is_finite() {
         assert!(lanes.iter().all(|v| !v.is_nan()), "-ref: NaN output for {p:?}");
     }
-    let one = dispatch(AnyVolume::F32(vol), kernel, Traced(&ref_spec));
+    let one = traced(&ref_spec, AnyVolume::F32(vol), kernel);
     assert!(
         lanes.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()),
         "-ref lanes {lanes:?} vs one-sample {one:?} for {p:?} {kernel}"

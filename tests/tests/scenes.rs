@@ -4,15 +4,14 @@
 use rnd_core::affine::Affine4;
 use rnd_core::blend::{Blend, MAX_CHANNELS};
 use rnd_core::camera::CameraSpec;
-use rnd_core::kernel::{Kernel, KernelName};
+use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::render::{dispatch, AnyVolume, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::sdg::{self, Grid};
 use rnd_core::txf::{Levoy, Lut, Txf, TxfSpace};
 use rnd_core::volume::Volume;
-use rnd_core::voxel::Voxel;
 use rnd_tests::Trace;
 
 fn grid(sizes: [usize; 3], centre: [f64; 3]) -> Grid {
@@ -1192,7 +1191,7 @@ proptest::proptest! {
                 "{k} {probe} {blend} -ref {reference} LUT {kind}: {fast:?} vs {plain:?}"
             );
             // The traced one-sample loop (what -db runs) gives the same image too.
-            let traced = dispatch(vol, k, TracedImage { spec: &spec });
+            let traced = traced_image(&spec, vol, k);
             proptest::prop_assert!(
                 fast.iter().zip(&traced).all(|(a, b)| a.to_bits() == b.to_bits())
                     && fast.len() == traced.len(),
@@ -1246,34 +1245,19 @@ proptest::proptest! {
 
 /// Renders every pixel of `spec` through [`RenderSpec::cast`] with [`Loop::OneSample`]
 /// and a (no-op) trace.
-struct TracedImage<'s, 'a> {
-    spec: &'s RenderSpec<'a>,
-}
-
-impl ConvoTask for TracedImage<'_, '_> {
-    type Output = Vec<f32>;
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
-        let [w, h] = self.spec.size();
-        let len = self.spec.params().probe.length();
-        let mut img = vec![0.0f32; (w * h) as usize * len];
-        for vi in 0..h {
-            for hi in 0..w {
-                let i = (vi * w + hi) as usize * len;
-                let mut ignore = |_: &SampleInfo| {};
-                let px = &mut img[i..i + len];
-                self.spec.cast(
-                    vol.into(),
-                    K::NAME,
-                    hi,
-                    vi,
-                    px,
-                    Loop::OneSample,
-                    Some(&mut ignore),
-                );
-            }
+fn traced_image(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> Vec<f32> {
+    let [w, h] = spec.size();
+    let len = spec.params().probe.length();
+    let mut img = vec![0.0f32; (w * h) as usize * len];
+    for vi in 0..h {
+        for hi in 0..w {
+            let i = (vi * w + hi) as usize * len;
+            let mut ignore = |_: &SampleInfo| {};
+            let px = &mut img[i..i + len];
+            spec.cast(vol, k, hi, vi, px, Loop::OneSample, Some(&mut ignore));
         }
-        img
     }
+    img
 }
 
 /// The whole image on this thread (these scenes are small and valid).
