@@ -489,7 +489,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         out: &mut Placed<[f32; 3], N>,
     ) {
         let cam = self.cam;
-        let kf: [f32; N] = core::array::from_fn(|l| (k0 + l as u32) as f32);
+        let mut kf = [0.0f32; N];
+        for (l, v) in kf.iter_mut().enumerate() {
+            *v = (k0 + l as u32) as f32;
+        }
         let mut pv = [[0.0f32; N]; 3];
         for a in 0..3 {
             for l in 0..N {
@@ -511,11 +514,22 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let mut ins = [[false; N]; 3];
         for a in 0..3 {
             let top = sz[a] as f32 - 1.0;
+            // `refarith::place`, lane by lane.
+            // (Plain loops: `array::from_fn` may stay out of line, compiled without the
+            // vector level.)
+            let mut x = [0.0f32; N];
+            let mut base = [0.0f32; N];
             for l in 0..N {
-                let x = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
-                // `refarith::place`, lane by lane.
-                let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
-                let base = math::floorf(y);
+                x[l] = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
+                base[l] = if S.is_multiple_of(2) {
+                    x[l]
+                } else {
+                    x[l] + 0.5
+                };
+            }
+            crate::simd::floor_lanes(self.simd, &mut base);
+            for l in 0..N {
+                let (x, base) = (x[l], base[l]);
                 let first = base + K::LO as f32;
                 ins[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
                 // For an integer 0 ≤ c < 2^52, c + 2^52 holds c in its low mantissa

@@ -161,27 +161,17 @@ impl Accum {
         let first = self.count == 0;
         self.count += 1;
         let len = self.len.min(MAX_CHANNELS);
+        // The common blends here (inlined into the ray loops), the others out of line so
+        // that they do not crowd the loops' code.
         match self.blend {
             Blend::Max => {
                 for c in 0..len {
                     self.acc[c] = if first { x[c] } else { self.acc[c].max(x[c]) };
                 }
             }
-            Blend::Min => {
-                for c in 0..len {
-                    self.acc[c] = if first { x[c] } else { self.acc[c].min(x[c]) };
-                }
-            }
             Blend::Sum | Blend::Mean => {
                 for c in 0..len {
                     self.acc[c] += x[c];
-                }
-            }
-            Blend::L2 | Blend::Variance | Blend::Sd => {
-                for c in 0..len {
-                    let v = f64::from(x[c]);
-                    self.sums[c][0] += v;
-                    self.sums[c][1] += v * v;
                 }
             }
             Blend::Median => {}
@@ -191,6 +181,24 @@ impl Accum {
                 self.acc[1] += t * x[1];
                 self.acc[2] += t * x[2];
                 self.acc[3] += t;
+            }
+            Blend::Min | Blend::L2 | Blend::Variance | Blend::Sd => self.add_other(x, first),
+        }
+    }
+
+    /// [`Accum::add`] under `min`, `l2`, `variance` and `sd`.
+    #[inline(never)]
+    fn add_other(&mut self, x: &[f32; MAX_CHANNELS], first: bool) {
+        let len = self.len.min(MAX_CHANNELS);
+        if self.blend == Blend::Min {
+            for c in 0..len {
+                self.acc[c] = if first { x[c] } else { self.acc[c].min(x[c]) };
+            }
+        } else if self.blend.squares() {
+            for c in 0..len {
+                let v = f64::from(x[c]);
+                self.sums[c][0] += v;
+                self.sums[c][1] += v * v;
             }
         }
     }
@@ -204,7 +212,8 @@ impl Accum {
             return;
         };
         match self.blend {
-            // Written out for each, so that `max`/`min` inline into the loop.
+            // Written out, so that `max` inlines into the loop; `min` and the f64 sums
+            // out of line, as in `add`.
             Blend::Max => {
                 let mut m = if self.count == 0 {
                     x0
@@ -216,36 +225,45 @@ impl Accum {
                 }
                 self.acc[0] = m;
             }
-            Blend::Min => {
-                let mut m = if self.count == 0 {
-                    x0
-                } else {
-                    self.acc[0].min(x0)
-                };
-                for &x in rest {
-                    m = m.min(x);
-                }
-                self.acc[0] = m;
-            }
-            b if b.squares() => {
-                let [mut s1, mut s2] = self.sums[0];
-                for &x in xs {
-                    let v = f64::from(x);
-                    s1 += v;
-                    s2 += v * v;
-                }
-                self.sums[0] = [s1, s2];
-            }
-            Blend::Median => {}
-            _ => {
+            Blend::Sum | Blend::Mean => {
                 let mut s = self.acc[0];
                 for &x in xs {
                     s += x;
                 }
                 self.acc[0] = s;
             }
+            Blend::Median | Blend::Over => {}
+            Blend::Min | Blend::L2 | Blend::Variance | Blend::Sd => self.add_scalars_other(xs),
         }
         self.count += xs.len() as u32;
+    }
+
+    /// [`Accum::add_scalars`] of at least one sample under `min`, `l2`, `variance` and
+    /// `sd` (the count is the caller's).
+    #[inline(never)]
+    fn add_scalars_other(&mut self, xs: &[f32]) {
+        let Some((&x0, rest)) = xs.split_first() else {
+            return;
+        };
+        if self.blend == Blend::Min {
+            let mut m = if self.count == 0 {
+                x0
+            } else {
+                self.acc[0].min(x0)
+            };
+            for &x in rest {
+                m = m.min(x);
+            }
+            self.acc[0] = m;
+        } else if self.blend.squares() {
+            let [mut s1, mut s2] = self.sums[0];
+            for &x in xs {
+                let v = f64::from(x);
+                s1 += v;
+                s2 += v * v;
+            }
+            self.sums[0] = [s1, s2];
+        }
     }
 
     /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
@@ -351,15 +369,16 @@ impl Kept {
     pub fn clear(&mut self) {
         self.chans.iter_mut().for_each(Vec::clear);
     }
-    /// Keeps the first `len` channels of sample `x`.
-    #[inline]
+    /// Keeps the first `len` channels of sample `x` (out of line: only `median` keeps
+    /// samples, and the ray loops stay small).
+    #[inline(never)]
     pub fn push(&mut self, x: &[f32; MAX_CHANNELS], len: usize) {
         for (ch, &v) in self.chans.iter_mut().zip(x).take(len) {
             ch.push(v);
         }
     }
     /// Keeps one-channel samples `xs`.
-    #[inline]
+    #[inline(never)]
     pub fn push_scalars(&mut self, xs: &[f32]) {
         self.chans[0].extend_from_slice(xs);
     }

@@ -91,12 +91,12 @@ struct State<'t> {
     kept: Option<Kept>,
 }
 
-/// Samples placed for the convolution, in ray order.
+/// Samples placed for the convolution, in ray order (how many are waiting is a local
+/// of the ray loop, so that it stays in a register).
 struct Batch<F, const N: usize> {
     n: [[i64; 3]; N],
     f: [F; N],
     k: [u32; N],
-    m: usize,
 }
 
 impl<'s, 'a, A: Arith> March<'s, 'a, A> {
@@ -178,12 +178,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             n: [[0; 3]; N],
             f: [A::Frac::default(); N],
             k: [0; N],
-            m: 0,
         };
+        let mut m = 0usize;
         let mut pb = Placed::<A::Frac, N>::default();
         let mut k = k0;
         'ray: while k < k1 {
-            if runs && b.m == 0 && k1 - k >= N as u32 {
+            if runs && m == 0 && k1 - k >= N as u32 {
                 let mut res = [[0.0f32; 4]; N];
                 if self.a.convolve_run::<G, N>(&ray, k, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
@@ -217,7 +217,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 }
                 if !pb.inside[l] {
                     if tracing {
-                        if self.flush::<G, N>(&ray, &mut st, &mut b) {
+                        if self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
                             return self.finish(&mut st, out);
                         }
                         self.emit(&ray, kk, &mut st, None, [0.0; MAX_CHANNELS], false);
@@ -230,10 +230,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     // the running maximum (which only grows while a batch waits), is
                     // counted unconvolved, and with its coarse block's bound, every
                     // sample up to the box's end.
-                    let (fine, coarse) = g.bounds_at(n);
                     let under = |b: f32| b < st.floor || st.acc.below_max(b);
-                    if under(fine) {
-                        if let (Some(l), true) = (line, under(coarse)) {
+                    if under(g.bound_at(n)) {
+                        if let (Some(l), true) = (line, under(g.coarse_bound_at(n))) {
                             let j = self.box_run_end(&l, SkipGrid::coarse_box(n), kk, k1);
                             if j > kk + 1 && !self.a.past(&ray, j) {
                                 st.unseen += j - kk + 1;
@@ -251,7 +250,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         // Inside with opacity 0: blending changes only the count. With
                         // the coarse flag, every sample up to `last` is too.
                         if tracing {
-                            if self.flush::<G, N>(&ray, &mut st, &mut b) {
+                            if self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
                                 return self.finish(&mut st, out);
                             }
                             A::blend(&mut st.acc, &mut st.transp, &[0.0; MAX_CHANNELS]);
@@ -270,15 +269,17 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         continue;
                     }
                 }
-                (b.n[b.m], b.f[b.m], b.k[b.m]) = (n, pb.f[l], kk);
-                b.m += 1;
-                if b.m == N && self.flush::<G, N>(&ray, &mut st, &mut b) {
+                if m < N {
+                    (b.n[m], b.f[m], b.k[m]) = (n, pb.f[l], kk);
+                }
+                m += 1;
+                if m == N && self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
                     return self.finish(&mut st, out);
                 }
             }
             k += cnt;
         }
-        self.flush::<G, N>(&ray, &mut st, &mut b);
+        self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m));
         if below.is_some() {
             self.hint.set(st.best);
             self.idle.set(if st.unseen == 0 {
@@ -338,15 +339,16 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
-    /// Convolves the batch, then probes and blends it in order; true when the ray ends.
+    /// Convolves the batch's first `m` samples, then probes and blends them in order;
+    /// true when the ray ends.
     #[inline(always)]
     fn flush<const G: bool, const N: usize>(
         &self,
         ray: &A::Ray,
         st: &mut State<'_>,
         b: &mut Batch<A::Frac, N>,
+        m: usize,
     ) -> bool {
-        let m = core::mem::take(&mut b.m);
         if m == 0 {
             return false;
         }

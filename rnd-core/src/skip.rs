@@ -557,16 +557,18 @@ impl SkipGrid {
     }
 
     /// The upper bound of the maximized quantity for a convolution whose support starts
-    /// at `lo` (all three axes inside the volume), and the bound for its whole coarse
-    /// block (the `max` kinds).
+    /// at `lo` (all three axes inside the volume; the `max` kinds).
     #[inline(always)]
-    pub fn bounds_at(&self, lo: [i64; 3]) -> (f32, f32) {
+    pub fn bound_at(&self, lo: [i64; 3]) -> f32 {
         let f = lo.map(|x| x as usize / F);
+        self.hi[f[0] + self.nf[0] * (f[1] + self.nf[1] * f[2])]
+    }
+
+    /// The upper bound of [`SkipGrid::bound_at`] over the whole coarse block of `lo`.
+    #[inline(always)]
+    pub fn coarse_bound_at(&self, lo: [i64; 3]) -> f32 {
         let c = lo.map(|x| x as usize / B);
-        (
-            self.hi[f[0] + self.nf[0] * (f[1] + self.nf[1] * f[2])],
-            self.coarse_hi[c[0] + self.nb[0] * (c[1] + self.nb[1] * c[2])],
-        )
+        self.coarse_hi[c[0] + self.nb[0] * (c[1] + self.nb[1] * c[2])]
     }
 
     /// The support starts, `[first, last]` per axis, of the coarse block of `lo`.
@@ -803,8 +805,8 @@ mod tests {
                         continue;
                     }
                     let gm = crate::arith::gmag(cs.grad_w);
-                    let (bv, _) = gv.bounds_at(lo);
-                    let (bg, cg) = gg.bounds_at(lo);
+                    let bv = gv.bound_at(lo);
+                    let (bg, cg) = (gg.bound_at(lo), gg.coarse_bound_at(lo));
                     assert!(
                         cs.value <= bv,
                         "{}: v {} > {bv} at {x:?}",

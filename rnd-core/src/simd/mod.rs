@@ -174,6 +174,34 @@ pub(crate) fn trunc_i64(y: f64) -> i64 {
     }
 }
 
+/// [`crate::math::floorf`] of every lane of `x`, the same bits: at AVX2 and above one
+/// rounding instruction per eight lanes (rounding toward −∞ is exact, keeps −0, ±∞ and
+/// NaN), else the portable function lane by lane.
+#[inline(always)]
+pub(crate) fn floor_lanes<const N: usize>(simd: Simd, x: &mut [f32; N]) {
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() && N.is_multiple_of(8) {
+        use core::arch::x86_64::{
+            _mm256_loadu_ps, _mm256_round_ps, _mm256_storeu_ps, _MM_FROUND_NO_EXC,
+            _MM_FROUND_TO_NEG_INF,
+        };
+        const DOWN: i32 = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+        for c in x.chunks_exact_mut(8) {
+            // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 (and so
+            // AVX) is supported; the chunk holds exactly eight f32 for the unaligned
+            // load and store.
+            unsafe {
+                let v = _mm256_loadu_ps(c.as_ptr());
+                _mm256_storeu_ps(c.as_mut_ptr(), _mm256_round_ps::<DOWN>(v));
+            }
+        }
+        return;
+    }
+    for v in x.iter_mut() {
+        *v = crate::math::floorf(*v);
+    }
+}
+
 /// The S×S×S supports of N samples in a volume's data (x fastest, rows `s0` voxels
 /// apart, slices `s01` apart), checked once to lie inside the data so that their voxels
 /// are then read without bounds checks.
@@ -290,4 +318,50 @@ pub(crate) fn cubic_run<V: crate::voxel::Voxel, const G: bool, const N: usize>(
     // supports are checked inside.
     unsafe { cubic::sums_run::<V, G, N>(data, s0, s01, lo, start, step, k, co, wide, out) };
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use alloc::vec;
+
+    #[test]
+    fn floor_lanes_is_floorf_at_every_level() {
+        // Integers and their neighbours, halves, signed zeros, the magnitudes near 2^23,
+        // infinities, NaN and a stride through all bit patterns, 16 lanes at a time.
+        let mut xs = vec![0.0f32, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+        for i in -300i32..=300 {
+            let b = (i as f32).to_bits();
+            xs.extend(
+                (0..8u32).flat_map(|d| [b.wrapping_add(d), b.wrapping_sub(d)].map(f32::from_bits)),
+            );
+            xs.push(i as f32 + 0.5);
+        }
+        for d in 0..64u32 {
+            let b = 8_388_608.0f32.to_bits();
+            xs.extend(
+                [b - d, b + d]
+                    .map(f32::from_bits)
+                    .into_iter()
+                    .flat_map(|x| [x, -x]),
+            );
+        }
+        xs.extend((0..u32::MAX / 1_000_003).map(|i| f32::from_bits(i * 1_000_003)));
+        for level in [SimdLevel::Baseline, SimdLevel::Avx2, SimdLevel::Avx512] {
+            let simd = Simd::at_most(level);
+            for chunk in xs.chunks(16) {
+                let mut lanes = [0.0f32; 16];
+                lanes[..chunk.len()].copy_from_slice(chunk);
+                let want = lanes.map(crate::math::floorf);
+                wide(simd, || floor_lanes(simd, &mut lanes));
+                for (g, w) in lanes.iter().zip(&want) {
+                    assert!(
+                        g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                        "{:?}: {g:e} != {w:e}",
+                        simd.level()
+                    );
+                }
+            }
+        }
+    }
 }
