@@ -170,35 +170,26 @@ pub fn ct_in_space(test: &str, dir: &Path) -> Option<PathBuf> {
     Some(ct)
 }
 
-/// A [`rnd_core::render::ConvoTask`] that casts the ray through pixel `px` with the
+/// Casts the ray through pixel `px` of `spec` over `vol` with `kernel` in the
 /// one-sample loop and returns every sample the trace saw.
-#[derive(Debug)]
-pub struct Trace<'s, 'a> {
-    /// The render.
-    pub spec: &'s rnd_core::render::RenderSpec<'a>,
-    /// The pixel (h, v).
-    pub px: [u32; 2],
-}
-
-impl rnd_core::render::ConvoTask for Trace<'_, '_> {
-    type Output = Vec<rnd_core::march::SampleInfo>;
-    fn run<V: rnd_core::voxel::Voxel, K: rnd_core::kernel::Kernel<S>, const S: usize>(
-        self,
-        vol: rnd_core::volume::Volume<'_, V>,
-    ) -> Self::Output {
-        let mut all = Vec::new();
-        let mut cb = |s: &rnd_core::march::SampleInfo| all.push(*s);
-        let mut out = [0.0f32; rnd_core::blend::MAX_CHANNELS];
-        let [h, v] = self.px;
-        self.spec.cast(
-            vol.into(),
-            K::NAME,
-            h,
-            v,
-            &mut out,
-            rnd_core::march::Loop::OneSample,
-            Some(&mut cb),
-        );
-        all
-    }
+pub fn trace(
+    spec: &rnd_core::render::RenderSpec<'_>,
+    vol: rnd_core::render::AnyVolume<'_>,
+    kernel: rnd_core::kernel::KernelName,
+    px: [u32; 2],
+) -> Vec<rnd_core::march::SampleInfo> {
+    let mut all = Vec::new();
+    let mut cb = |s: &rnd_core::march::SampleInfo| all.push(*s);
+    let mut out = [0.0f32; rnd_core::blend::MAX_CHANNELS];
+    let [h, v] = px;
+    spec.cast(
+        vol,
+        kernel,
+        h,
+        v,
+        &mut out,
+        rnd_core::march::Loop::OneSample,
+        Some(&mut cb),
+    );
+    all
 }

@@ -4,13 +4,11 @@ use std::path::Path;
 
 use rnd_core::blend::Blend;
 use rnd_core::camera::CameraSpec;
-use rnd_core::kernel::{Kernel, KernelName};
-use rnd_core::march::Loop;
+use rnd_core::kernel::KernelName;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::render::{RenderParams, RenderSpec, SampleInfo};
 use rnd_core::txf::Lut;
 use rnd_core::volume::Volume;
-use rnd_core::voxel::Voxel;
 use rnd_std::{files, nrrd, parallel, volume_io};
 
 fn cube_params() -> RenderParams {
@@ -46,37 +44,19 @@ fn cube_inputs(d: &Path) -> (volume_io::VolumeBuf, Lut, Vec<rnd_core::light::Lig
 }
 
 /// Distance (in LUT entries) from the nearest LUT bin boundary of the counted sample
-/// values of one ray; a tiny distance means float round-off decides which entry is used.
-struct NearestBoundary<'s, 'a> {
-    spec: &'s RenderSpec<'a>,
-    lut: &'s Lut,
-    px: [u32; 2],
-}
-
-impl ConvoTask for NearestBoundary<'_, '_> {
-    type Output = f64;
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> f64 {
-        let mut best = f64::INFINITY;
-        let len = self.lut.entries().len() as f64;
-        let (lo, hi) = (self.lut.vmin(), self.lut.vmax());
-        let mut cb = |s: &SampleInfo| {
-            if s.counted {
-                let f = (s.convo.value as f64 - lo) / (hi - lo) * len;
-                best = best.min((f - f.round()).abs());
-            }
-        };
-        let mut out = [0.0f32; 4];
-        self.spec.cast(
-            vol.into(),
-            K::NAME,
-            self.px[0],
-            self.px[1],
-            &mut out,
-            Loop::OneSample,
-            Some(&mut cb),
-        );
-        best
-    }
+/// values of one ray's `samples`; a tiny distance means float round-off decides which
+/// entry is used.
+fn nearest_boundary(samples: &[SampleInfo], lut: &Lut) -> f64 {
+    let len = lut.entries().len() as f64;
+    let (lo, hi) = (lut.vmin(), lut.vmax());
+    samples
+        .iter()
+        .filter(|s| s.counted)
+        .map(|s| {
+            let f = (s.convo.value as f64 - lo) / (hi - lo) * len;
+            (f - f.round()).abs()
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The f64 engine (`-ref false`: f64 geometry, separable sums) reproduces cube-rgb.nrrd
@@ -140,15 +120,8 @@ fn cube_rgb_f64_engine_matches_reference() {
             continue;
         }
         let (h, v) = ((px % 320) as u32, (px / 320) as u32);
-        let dist = dispatch(
-            vol.view(),
-            KernelName::Bspln3,
-            NearestBoundary {
-                spec: &spec,
-                lut: &lut,
-                px: [h, v],
-            },
-        );
+        let samples = rnd_tests::trace(&spec, vol.view(), KernelName::Bspln3, [h, v]);
+        let dist = nearest_boundary(&samples, &lut);
         assert!(
             dist < 2e-3,
             "pixel ({h},{v}) differs by {d} and no sample is near a LUT bin boundary ({dist})"

@@ -8,11 +8,11 @@ use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, AnyVolume, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo};
 use rnd_core::sdg::{self, Grid};
 use rnd_core::txf::{Levoy, Lut, Txf, TxfSpace};
 use rnd_core::volume::Volume;
-use rnd_tests::Trace;
+use rnd_tests::trace;
 
 fn grid(sizes: [usize; 3], centre: [f64; 3]) -> Grid {
     Grid {
@@ -521,14 +521,7 @@ fn depth_cue_is_linear_in_depth() {
         p.dcn = [1.2, 1.0, 0.2];
         p.dcf = [0.2, 0.5, 0.9];
         let spec = RenderSpec::new(p.clone(), Some(&lut), None, &lights).unwrap();
-        let samples = dispatch(
-            AnyVolume::F32(vol),
-            KernelName::Tent,
-            Trace {
-                spec: &spec,
-                px: [3, 3],
-            },
-        );
+        let samples = trace(&spec, AnyVolume::F32(vol), KernelName::Tent, [3, 3]);
         let (ncv, fcv) = (spec.camera().ncv, spec.camera().fcv);
         let mut n = 0;
         for s in samples.iter().filter(|s| s.counted) {
@@ -951,14 +944,7 @@ fn every_probe_blend_pair_blends_its_samples() {
                 let img = render(&spec, AnyVolume::F32(vol), KernelName::Ctmr);
                 let len = probe.length();
                 for (h, v) in [(4, 4), (0, 0), (2, 6)] {
-                    let samples = dispatch(
-                        AnyVolume::F32(vol),
-                        KernelName::Ctmr,
-                        Trace {
-                            spec: &spec,
-                            px: [h, v],
-                        },
-                    );
+                    let samples = trace(&spec, AnyVolume::F32(vol), KernelName::Ctmr, [h, v]);
                     let counted: Vec<[f32; MAX_CHANNELS]> = samples
                         .iter()
                         .filter(|s| s.counted)

@@ -16,9 +16,9 @@ use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
 use rnd_core::march::SampleInfo;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, AnyVolume, RenderParams, RenderSpec};
+use rnd_core::render::{AnyVolume, RenderParams, RenderSpec};
 use rnd_core::volume::OwnedVolume;
-use rnd_tests::Trace;
+use rnd_tests::trace;
 
 /// A 28³ grid of spacing about 0.25, rotated and sheared, centred near the origin.
 fn grid() -> Affine4 {
@@ -60,7 +60,7 @@ fn each_sample(
         let spec = RenderSpec::new(params(probe, Blend::Sum, reference), None, None, &[]).unwrap();
         let mut n = 0;
         for px in [[4, 4], [2, 5], [6, 3]] {
-            let samples = dispatch(AnyVolume::F32(vol.view()), k, Trace { spec: &spec, px });
+            let samples = trace(&spec, AnyVolume::F32(vol.view()), k, px);
             for s in samples.iter().filter(|s| s.counted) {
                 check(s, &s.probe[..probe.length()]);
                 n += 1;

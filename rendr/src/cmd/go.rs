@@ -5,13 +5,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use rnd_core::blend::Blend;
-use rnd_core::kernel::{Kernel, KernelName};
+use rnd_core::kernel::KernelName;
 use rnd_core::light::Phong;
 use rnd_core::march::Loop;
 use rnd_core::probe::Probe;
-use rnd_core::render::{dispatch, ConvoTask, RenderParams, RenderSpec, SampleInfo};
-use rnd_core::volume::Volume;
-use rnd_core::voxel::Voxel;
+use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo};
 use rnd_std::image_out::{write_image_to, Image};
 
 use crate::args::{def, flag, opt, parse_named, req, Args, CmdSpec};
@@ -206,73 +204,65 @@ pub static SPEC: CmdSpec = CmdSpec {
     pos: &[],
 };
 
-struct Trace<'s, 'a> {
-    spec: &'s RenderSpec<'a>,
-    px: [u32; 2],
-}
-
-impl ConvoTask for Trace<'_, '_> {
-    type Output = ();
-    fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
-        let spec = self.spec;
-        let [hi, vi] = self.px;
-        let g = spec.ray_geom(hi, vi);
-        outln!("pixel ({hi}, {vi}):");
-        outln!(
-            "  view-space ray initial pos {} step {}",
-            list6(&g.start_v),
-            list6(&g.step_v)
-        );
-        outln!(
-            "  world-space ray initial pos {} step {}",
-            list6(&g.start_w),
-            list6(&g.step_w)
-        );
-        outln!("  length of ray step {}", g6(g.step_len));
-        let plen = spec.params().probe.length();
-        let mut out = vec![0.0f32; plen];
-        let mut cb = |s: &SampleInfo| {
-            let f = |v: &[f32]| {
-                v.iter()
-                    .map(|&x| g6(x as f64))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            };
-            outln!(
-                "  sample {}: view ({}) world ({}) index ({}) inside {}",
-                s.k,
-                list6(&s.pos_v),
-                list6(&s.pos_w),
-                list6(&s.convo.pos_i),
-                u8::from(s.convo.inside)
-            );
-            if s.convo.inside {
-                outln!(
-                    "    value {} gradient ({})",
-                    g6(s.convo.value as f64),
-                    f(&s.convo.grad_w)
-                );
-            }
-            outln!(
-                "    probe ({}){} -> blend ({}) count {}",
-                f(&s.probe[..plen]),
-                if s.counted { "" } else { " not counted" },
-                f(&s.accum.acc[..plen]),
-                s.accum.count
-            );
+/// `-db`: prints the ray through pixel `px` and every sample of it (the one-sample loop).
+fn trace_pixel(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName, px: [u32; 2]) {
+    let [hi, vi] = px;
+    let g = spec.ray_geom(hi, vi);
+    outln!("pixel ({hi}, {vi}):");
+    outln!(
+        "  view-space ray initial pos {} step {}",
+        list6(&g.start_v),
+        list6(&g.step_v)
+    );
+    outln!(
+        "  world-space ray initial pos {} step {}",
+        list6(&g.start_w),
+        list6(&g.step_w)
+    );
+    outln!("  length of ray step {}", g6(g.step_len));
+    let plen = spec.params().probe.length();
+    let mut out = vec![0.0f32; plen];
+    let mut cb = |s: &SampleInfo| {
+        let f = |v: &[f32]| {
+            v.iter()
+                .map(|&x| g6(x as f64))
+                .collect::<Vec<_>>()
+                .join(" ")
         };
-        spec.cast(
-            vol.into(),
-            K::NAME,
-            hi,
-            vi,
-            &mut out,
-            Loop::OneSample,
-            Some(&mut cb),
+        outln!(
+            "  sample {}: view ({}) world ({}) index ({}) inside {}",
+            s.k,
+            list6(&s.pos_v),
+            list6(&s.pos_w),
+            list6(&s.convo.pos_i),
+            u8::from(s.convo.inside)
         );
-        let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
-        outln!("result: {}", list6(&r));
-    }
+        if s.convo.inside {
+            outln!(
+                "    value {} gradient ({})",
+                g6(s.convo.value as f64),
+                f(&s.convo.grad_w)
+            );
+        }
+        outln!(
+            "    probe ({}){} -> blend ({}) count {}",
+            f(&s.probe[..plen]),
+            if s.counted { "" } else { " not counted" },
+            f(&s.accum.acc[..plen]),
+            s.accum.count
+        );
+    };
+    spec.cast(
+        vol,
+        kernel,
+        hi,
+        vi,
+        &mut out,
+        Loop::OneSample,
+        Some(&mut cb),
+    );
+    let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
+    outln!("result: {}", list6(&r));
 }
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
@@ -403,14 +393,7 @@ pub fn run_cached(
                 db[1]
             );
         }
-        dispatch(
-            vol.view(),
-            kernel,
-            Trace {
-                spec: &spec,
-                px: [db[0] as u32, db[1] as u32],
-            },
-        );
+        trace_pixel(&spec, vol.view(), kernel, [db[0] as u32, db[1] as u32]);
         return Ok(());
     }
     if a.flag("petc") {
