@@ -124,12 +124,7 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
                 ))
             }
         };
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(Error::at(
-                path,
-                format!("LUT axis {a} range [{lo}, {hi}] needs finite min < max"),
-            ));
-        }
+        // The domain (finite min < max) is checked by `Lut::with_axes`.
         if nrrd::centering(h, a) == Centering::Node {
             return Err(Error::at(
                 path,
@@ -165,10 +160,8 @@ pub fn lut_from_nrrd(path: &Path, n: Nrrd) -> Result<Lut> {
         };
         axes.push(LutAxis::new(quantity, lo, hi, len));
     }
+    // Non-finite entries are refused by `Lut::with_axes`.
     let v = n.data.to_f32();
-    if v.iter().any(|x| !x.is_finite()) {
-        return Err(Error::at(path, "LUT has non-finite entries"));
-    }
     let rgba = v
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])
