@@ -164,11 +164,7 @@ impl Accum {
         // The common blends here (inlined into the ray loops), the others out of line so
         // that they do not crowd the loops' code.
         match self.blend {
-            Blend::Max => {
-                for c in 0..len {
-                    self.acc[c] = if first { x[c] } else { self.acc[c].max(x[c]) };
-                }
-            }
+            Blend::Max => self.pick_channels(x, first, f32::max),
             Blend::Sum | Blend::Mean => {
                 for c in 0..len {
                     self.acc[c] += x[c];
@@ -189,13 +185,10 @@ impl Accum {
     /// [`Accum::add`] under `min`, `l2`, `variance` and `sd`.
     #[inline(never)]
     fn add_other(&mut self, x: &[f32; MAX_CHANNELS], first: bool) {
-        let len = self.len.min(MAX_CHANNELS);
         if self.blend == Blend::Min {
-            for c in 0..len {
-                self.acc[c] = if first { x[c] } else { self.acc[c].min(x[c]) };
-            }
+            self.pick_channels(x, first, f32::min);
         } else if self.blend.squares() {
-            for c in 0..len {
+            for c in 0..self.len.min(MAX_CHANNELS) {
                 let v = f64::from(x[c]);
                 self.sums[c][0] += v;
                 self.sums[c][1] += v * v;
@@ -212,19 +205,9 @@ impl Accum {
             return;
         };
         match self.blend {
-            // Written out, so that `max` inlines into the loop; `min` and the f64 sums
-            // out of line, as in `add`.
-            Blend::Max => {
-                let mut m = if self.count == 0 {
-                    x0
-                } else {
-                    self.acc[0].max(x0)
-                };
-                for &x in rest {
-                    m = m.max(x);
-                }
-                self.acc[0] = m;
-            }
+            // `max` and the f32 sums inline into the loop; `min` and the f64 sums out of
+            // line, as in `add`.
+            Blend::Max => self.acc[0] = self.picked(x0, rest, f32::max),
             Blend::Sum | Blend::Mean => {
                 let mut s = self.acc[0];
                 for &x in xs {
@@ -246,15 +229,7 @@ impl Accum {
             return;
         };
         if self.blend == Blend::Min {
-            let mut m = if self.count == 0 {
-                x0
-            } else {
-                self.acc[0].min(x0)
-            };
-            for &x in rest {
-                m = m.min(x);
-            }
-            self.acc[0] = m;
+            self.acc[0] = self.picked(x0, rest, f32::min);
         } else if self.blend.squares() {
             let [mut s1, mut s2] = self.sums[0];
             for &x in xs {
@@ -264,6 +239,35 @@ impl Accum {
             }
             self.sums[0] = [s1, s2];
         }
+    }
+
+    /// `max` or `min` (`pick`) of one sample `x` into every channel in use; the ray's
+    /// first sample starts them.
+    #[inline(always)]
+    fn pick_channels(
+        &mut self,
+        x: &[f32; MAX_CHANNELS],
+        first: bool,
+        pick: impl Fn(f32, f32) -> f32,
+    ) {
+        for c in 0..self.len.min(MAX_CHANNELS) {
+            self.acc[c] = if first { x[c] } else { pick(self.acc[c], x[c]) };
+        }
+    }
+
+    /// The running `max` or `min` (`pick`) of channel 0 after one-channel samples `x0`,
+    /// `rest...` in order; the ray's first sample starts it.
+    #[inline(always)]
+    fn picked(&self, x0: f32, rest: &[f32], pick: impl Fn(f32, f32) -> f32) -> f32 {
+        let mut m = if self.count == 0 {
+            x0
+        } else {
+            pick(self.acc[0], x0)
+        };
+        for &x in rest {
+            m = pick(m, x);
+        }
+        m
     }
 
     /// Blends `n` samples of opacity 0 under `over`: only the count changes (what
