@@ -171,6 +171,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         // Runs of consecutive samples with positions computed alongside the sums (an
         // exact span, nothing to skip).
         let runs = exact && !over && !tracing && below.is_none() && !sp.second;
+        let whole = N > 1 && !everywhere && !tracing && skip.is_none() && below.is_none();
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
@@ -199,6 +200,32 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             if !everywhere {
                 self.a
                     .place_block::<N>(&ray, k, exact && cnt == N as u32, &mut pb);
+            }
+            // A whole block inside and before the far plane, with nothing to skip or
+            // trace, is the batch, in order. Leading samples outside (where the ray
+            // enters) count for nothing: the block starts again after them.
+            if whole && m == 0 && cnt == N as u32 && !pb.past.iter().any(|&p| p) {
+                match (
+                    pb.inside.iter().all(|&i| i),
+                    pb.inside.iter().position(|&i| i),
+                ) {
+                    (true, _) => {
+                        (b.n, b.f) = (pb.n, pb.f);
+                        for (i, kk) in b.k.iter_mut().enumerate() {
+                            *kk = k + i as u32;
+                        }
+                        if self.flush::<G, N>(&ray, &mut st, &mut b, N) {
+                            return self.finish(&mut st, out);
+                        }
+                        k += N as u32;
+                        continue;
+                    }
+                    (false, Some(j)) if j > 0 => {
+                        k += j as u32;
+                        continue;
+                    }
+                    _ => {}
+                }
             }
             for (l, kk) in (k..k + cnt).enumerate() {
                 let past = if everywhere {

@@ -486,10 +486,11 @@ impl<'a> RenderSpec<'a> {
         vol: &Volume<'_, V>,
         kernel: KernelName,
     ) -> Option<SkipPlan<'a>> {
-        match (self.skip_kind()?, self.lut) {
+        let plan = match (self.skip_kind()?, self.lut) {
             (SkipKind::Opacity, Some(lut)) => Some(SkipPlan::new(vol, kernel, lut)),
             (kind, _) => SkipPlan::for_max(vol, kernel, kind),
-        }
+        };
+        plan.map(|p| p.with_simd(self.simd))
     }
 
     /// Whether the gradient is computed at each sample.

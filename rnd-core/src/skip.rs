@@ -18,6 +18,7 @@ use alloc::vec::Vec;
 
 use crate::classify::Quantity;
 use crate::kernel::KernelName;
+use crate::simd::Simd;
 use crate::txf::Lut;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -162,6 +163,7 @@ pub struct SkipPlan<'l> {
     nf: [usize; 3],
     nb: [usize; 3],
     test: Test<'l>,
+    simd: Simd,
 }
 
 /// How a block's voxel range is judged.
@@ -266,7 +268,15 @@ impl<'l> SkipPlan<'l> {
             nf: sizes.map(|n| n.div_ceil(F)),
             nb: sizes.map(|n| n.div_ceil(B)),
             test,
+            simd: Simd::detect(),
         }
+    }
+
+    /// The plan building at vector level `simd` (at most; the best the processor has
+    /// unless set). The grid is the same at every level: its minima and maxima are exact.
+    pub fn with_simd(mut self, simd: Simd) -> Self {
+        self.simd = simd;
+        self
     }
 
     /// Number of coarse slabs (along the slowest axis), the units of work.
@@ -336,6 +346,20 @@ impl<'l> SkipPlan<'l> {
     /// Fills coarse slabs `slabs` of the grids: `part` is exactly those slabs' part
     /// (see [`SkipPlan::split`]).
     pub fn build_slabs<V: Voxel>(
+        &self,
+        vol: &Volume<'_, V>,
+        slabs: core::ops::Range<usize>,
+        part: SkipPart<'_>,
+    ) {
+        // The plane minima and maxima vectorize best with AVX2 (and are exact anyway).
+        crate::simd::wide(self.simd, {
+            #[inline(always)]
+            || self.fill_slabs(vol, slabs, part)
+        });
+    }
+
+    #[inline(always)]
+    fn fill_slabs<V: Voxel>(
         &self,
         vol: &Volume<'_, V>,
         slabs: core::ops::Range<usize>,
