@@ -6,6 +6,7 @@ mod out;
 mod args;
 mod cmd;
 mod fmt;
+mod view;
 
 use std::process::ExitCode;
 

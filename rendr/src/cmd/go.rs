@@ -299,13 +299,9 @@ impl VolumeCache {
     }
 }
 
-/// `go` with volumes taken from (and added to) `cache`; `extra_inputs` are files the
-/// output must not overwrite besides this command's own (`mgo`'s command file).
-pub fn run_cached(
-    a: &Args,
-    cache: &mut VolumeCache,
-    extra_inputs: &[String],
-) -> anyhow::Result<()> {
+/// The render parameters, kernel and thread count the options of `a` ask for (the
+/// `go` options that neither name files nor choose outputs; shared with `view`).
+pub fn params(a: &Args) -> anyhow::Result<(RenderParams, KernelName, usize)> {
     let camera = super::cam::camera_spec(a)?;
     let kernel: KernelName = parse_named("k", &a.get_str("k").unwrap_or_default())?;
     let probe: Probe = parse_named("p", &a.get_str("p").unwrap_or_default())?;
@@ -335,6 +331,17 @@ pub fn run_cached(
     if threads > 1024 {
         bail!("-nt: {threads} threads is more than the limit of 1024");
     }
+    Ok((params, kernel, threads))
+}
+
+/// `go` with volumes taken from (and added to) `cache`; `extra_inputs` are files the
+/// output must not overwrite besides this command's own (`mgo`'s command file).
+pub fn run_cached(
+    a: &Args,
+    cache: &mut VolumeCache,
+    extra_inputs: &[String],
+) -> anyhow::Result<()> {
+    let (params, kernel, threads) = params(a)?;
     let db = a.get_arr::<i32, 2>("db")?;
     let debug = db[0] >= 0 || db[1] >= 0;
     let progress: bool = a.get("sp")?;

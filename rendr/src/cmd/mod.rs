@@ -25,7 +25,7 @@ mod about;
 mod cam;
 mod ceval;
 mod convert;
-mod go;
+pub(crate) mod go;
 mod info;
 mod keval;
 mod klist;
@@ -36,6 +36,7 @@ mod m4ai;
 mod mgo;
 mod sdg;
 mod teval;
+mod view;
 
 /// A sub-command: its option table, other names, and what it runs.
 pub struct Command {
@@ -118,6 +119,11 @@ pub static COMMANDS: &[Command] = &[
         spec: &convert::SPEC,
         aliases: &[],
         run: convert::run,
+    },
+    Command {
+        spec: &view::SPEC,
+        aliases: &[],
+        run: view::run,
     },
     Command {
         spec: &sdg::SPEC,
