@@ -373,3 +373,38 @@ fn bad_command_lines_fail_before_serving() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_command_line_lut_and_lights_serve_requests_without_their_own() {
+    let (lut, lit) = (data("head-lut.nrrd"), data("head-lights.txt"));
+    let v = start(&["-lut", lut.to_str().unwrap(), "-lit", lit.to_str().unwrap()]);
+    let (_, info) = get(&v, &format!("/info?t={}", v.token), "");
+    let info = text(&info);
+    let lut = data("head-lut.nrrd").canonicalize().unwrap();
+    assert!(
+        info.contains(&format!("\"lut_file\":\"{}\"", lut.display())),
+        "the LUT is named absolutely: {info}"
+    );
+    let mut args = MIP.to_vec();
+    (args[1], args[3], args[5]) = ("bspln3", "rgbalit", "over");
+    let (s, png) = post(&v, &render_body(1, &args, None, None), "");
+    assert_eq!(s, 200, "{}", text(&png));
+    let dir = std::env::temp_dir().join(format!("rendr-test-{}-view-lut", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let st = Command::new(RENDR)
+        .args(["go", "-i"])
+        .arg(data("itk-t1-head.nrrd"))
+        .arg("-lut")
+        .arg(&lut)
+        .arg("-lit")
+        .arg(data("head-lights.txt"))
+        .args(&args)
+        .arg("-o")
+        .arg(dir.join("go.png"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    assert!(std::fs::read(dir.join("go.png")).unwrap() == png);
+    let _ = std::fs::remove_dir_all(&dir);
+}

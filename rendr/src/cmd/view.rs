@@ -46,7 +46,13 @@ pub static SPEC: CmdSpec = CmdSpec {
         def(&["ov", "-outsideval"], 1, "0", "val", "value for rays with nothing to blend"),
         opt(&["nt"], 1, "threads", "threads per render (default: up to 2; at most the cores)"),
         def(&["us"], 1, "1", "unitstep", "unit step length for opacity correction"),
-        def(&["a1"], 1, "1", "alphanear1", "early ray termination opacity, in (0,1]"),
+        def(
+            &["a1"],
+            1,
+            "0.99",
+            "alphanear1",
+            "early ray termination opacity, in (0,1] (go's default is 1, off; the printed command always says which)",
+        ),
         opt(&["lut"], 1, "lut", "LUT to use until the page's transfer function is edited"),
         opt(&["lev"], 1, "levoy", "Levoy iso-contour opacities (v r a per line)"),
         opt(&["lit"], 1, "lights", "light file (the page's first lights)"),
@@ -145,13 +151,19 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     // The first settings must render: their errors name the option now.
     let first = crate::view::request_args(&words).map_err(|e| anyhow::anyhow!(e.1))?;
     super::go::params(&first)?;
+    // Files are named absolutely in the printed command (it may run elsewhere).
+    let full = |f: &str| {
+        std::fs::canonicalize(f)
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|_| f.to_string())
+    };
     let lut = a
         .get_str("lut")
-        .map(|f| Ok::<_, anyhow::Error>((f.clone(), rnd_std::files::load_lut(Path::new(&f))?)))
+        .map(|f| Ok::<_, anyhow::Error>((full(&f), rnd_std::files::load_lut(Path::new(&f))?)))
         .transpose()?;
     let lev = a
         .get_str("lev")
-        .map(|f| Ok::<_, anyhow::Error>((f.clone(), rnd_std::files::load_levoy(Path::new(&f))?)))
+        .map(|f| Ok::<_, anyhow::Error>((full(&f), rnd_std::files::load_levoy(Path::new(&f))?)))
         .transpose()?;
     let lights = match a.get_str("lit") {
         Some(f) => {
@@ -173,9 +185,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         hosts.push(format!("localhost:{}", addr.port()));
     }
     let (hist, range) = crate::view::histogram(&vol);
-    let volume = std::fs::canonicalize(&path)
-        .map(|p| p.display().to_string())
-        .unwrap_or(path);
+    let volume = full(&path);
     let session = Session {
         path: volume,
         vol,
@@ -185,11 +195,18 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         words,
         token: token.clone(),
         hosts,
+        any_port: addr.ip().is_unspecified().then_some(addr.port()),
         max_threads: threads,
         hist,
         range,
         running: Default::default(),
     };
+    if !addr.ip().is_loopback() {
+        eprintln!(
+            "rendr view: warning: listening on {addr}: other machines can reach this server \
+             (they still need the token)"
+        );
+    }
     println!("rendr view: http://{addr}/?t={token}");
     use std::io::Write;
     let _ = std::io::stdout().flush();

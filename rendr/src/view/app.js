@@ -22,6 +22,7 @@ let opts = {};          // option -> array of value strings (flags: [])
 let home = null;        // the first camera, for reset
 let txf = { space: "rgb", rgb: [], alpha: [], mm: [0, 1], len: 256 };
 let selected = null;    // index of the selected colour point
+let txfEdited = false;  // with -lut on the command line: that LUT until the points move
 let seq = 0, shownSeq = 0, pending = null, idleTimer = null, fullBlobUrl = null;
 
 function num(v) { return Number(v); }
@@ -29,6 +30,7 @@ function vec(o) { return (opts[o] || []).map(num); }
 function setVec(o, v) { opts[o] = v.map((x) => String(Number(x.toPrecision(12)))); }
 function usesLut() { const p = opts.p[0]; return p === "rgba" || p === "rgbalit"; }
 function usesLights() { return opts.p[0] === "rgbalit"; }
+function fileLut() { return usesLut() && info.lut_file && !txfEdited; }
 
 // ---- words and the command -------------------------------------------------------
 function parseWords(words) {
@@ -68,7 +70,9 @@ function quote(s) { return /^[\w@%+=:,./-]+$/.test(s) ? s : "'" + s.replace(/'/g
 function command() {
   const lines = [];
   const go = ["rendr", "go", "-i", quote(info.volume)];
-  if (usesLut()) {
+  if (fileLut()) {
+    go.push("-lut", quote(info.lut_file));
+  } else if (usesLut()) {
     lines.push(["rendr", "lgen", "-i", "rgb.txt", "alpha.txt", "-mm", fmt(txf.mm[0]), fmt(txf.mm[1]),
       "-l", String(txf.len), "-o", "lut.nrrd"].join(" "));
     go.push("-lut", "lut.nrrd");
@@ -81,17 +85,17 @@ function command() {
 }
 function request(full, format) {
   const r = { client: CLIENT, seq: ++seq, args: words(full), txf: null, lights: null };
-  if (usesLut()) { const t = txfText(); r.txf = { rgb: t.rgb, alpha: t.alpha, mm: txf.mm, len: txf.len }; }
+  if (usesLut() && !fileLut()) { const t = txfText(); r.txf = { rgb: t.rgb, alpha: t.alpha, mm: txf.mm, len: txf.len }; }
   if (usesLights()) r.lights = $("lights").value;
   if (format) r.format = format;
   return r;
 }
 
 // ---- rendering ---------------------------------------------------------------------
-async function post(req) {
+async function post(req, signal) {
   const resp = await fetch("render?t=" + TOKEN, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(req),
-    signal: req.signal,
+    signal,
   });
   if (!resp.ok) throw new Error(resp.status + ": " + (await resp.text()).trim());
   return resp.blob();
@@ -105,8 +109,7 @@ async function draw(full) {
   const t0 = performance.now();
   status(full ? "rendering…" : "preview…");
   try {
-    const blob = await post(Object.assign(req, { signal: ctl.signal }));
-    delete req.signal;
+    const blob = await post(req, ctl.signal);
     if (mine < shownSeq) return;
     shownSeq = mine;
     const bmp = await createImageBitmap(blob);
@@ -134,6 +137,7 @@ function status(msg, bad) { const s = $("status"); s.textContent = msg; s.classN
 // A coarse picture now, the full one when the input rests.
 function changed(interactive) {
   updateCommand();
+  $("lutnote").textContent = fileLut() ? "using -lut " + info.lut_file + " until a point moves" : "";
   clearTimeout(idleTimer);
   if (interactive) {
     draw(false);
@@ -223,6 +227,9 @@ function rgbToHsv([r, g, b]) {
 }
 const hex = (c) => "#" + c.map((x) => Math.round(Math.min(1, Math.max(0, x)) * 255).toString(16).padStart(2, "0")).join("");
 function drawTxf() {
+  // Every drawing after the first follows an edit of the points or the domain.
+  if (drawTxf.done) txfEdited = true;
+  drawTxf.done = true;
   const c = $("txf"), g = c.getContext("2d"), H = c.height;
   g.clearRect(0, 0, 512, H);
   const hist = info.hist, mx = Math.log1p(Math.max(...hist));
@@ -337,7 +344,7 @@ function setupTxf() {
   for (const [id, i] of [["mm0", 0], ["mm1", 1]]) {
     $(id).addEventListener("change", () => { const v = num($(id).value); if (isFinite(v)) { txf.mm[i] = v; drawTxf(); changed(false); } });
   }
-  $("len").addEventListener("change", () => { txf.len = Math.max(1, Math.round(num($("len").value))); changed(false); });
+  $("len").addEventListener("change", () => { txf.len = Math.max(1, Math.round(num($("len").value))); txfEdited = true; changed(false); });
 }
 
 // ---- the rest of the controls --------------------------------------------------------
@@ -364,22 +371,32 @@ function bindText(id, opt) {
 }
 function setupImage() {
   const c = $("image");
-  let last = null, panning = false;
+  const down = new Map();   // pointers held: id -> [x, y]
+  let panning = false, spread = 0;
+  const gap = () => { const [a, b] = [...down.values()]; return Math.hypot(a[0] - b[0], a[1] - b[1]); };
   c.addEventListener("contextmenu", (e) => e.preventDefault());
   c.addEventListener("pointerdown", (e) => {
-    last = [e.clientX, e.clientY];
+    down.set(e.pointerId, [e.clientX, e.clientY]);
     panning = e.shiftKey || e.button === 2;
+    if (down.size === 2) spread = gap();
     c.setPointerCapture(e.pointerId);
   });
   c.addEventListener("pointermove", (e) => {
+    const last = down.get(e.pointerId);
     if (!last) return;
     const r = c.getBoundingClientRect(), s = c.height / r.height;
     const dx = (e.clientX - last[0]) * s, dy = (e.clientY - last[1]) * s;
-    last = [e.clientX, e.clientY];
-    if (panning) pan(dx, dy); else orbit(dx, dy);
+    down.set(e.pointerId, [e.clientX, e.clientY]);
+    if (down.size === 2) {            // two fingers: pinch to zoom
+      const g = gap();
+      if (spread > 0 && g > 0) zoom(spread / g);
+      spread = g;
+    } else if (panning) pan(dx, dy); else orbit(dx, dy);
     changed(true);
   });
-  c.addEventListener("pointerup", () => { last = null; });
+  const up = (e) => { down.delete(e.pointerId); spread = 0; };
+  c.addEventListener("pointerup", up);
+  c.addEventListener("pointercancel", up);
   c.addEventListener("wheel", (e) => { e.preventDefault(); zoom(Math.exp(e.deltaY * 0.001)); changed(true); }, { passive: false });
 }
 
@@ -394,8 +411,8 @@ async function start() {
     ", values " + info.range.map(fmt).join(" to ");
   const [lo, hi] = info.range;
   txf.mm = [lo, hi];
-  txf.rgb = [[lo, 1, 1, 1], [hi, 1, 1, 1]];
-  txf.alpha = [[lo, 0], [lo + 0.3 * (hi - lo), 0], [lo + 0.6 * (hi - lo), 0.6], [hi, 0.6]];
+  txf.rgb = [[lo, 0.9, 0.75, 0.65], [hi, 1, 1, 1]];
+  txf.alpha = [[lo, 0], [lo + 0.15 * (hi - lo), 0], [lo + 0.3 * (hi - lo), 0.8], [hi, 0.8]];
   $("lights").value = info.lights || "#space:=rgb\n# one white light from the upper left (view space)\n1 1 1  -1 1 1  1\n";
   fillSelect("k", KERNELS); fillSelect("p", PROBES); fillSelect("b", BLENDS);
   bindNumber("s", () => opts.s[0], (v) => { opts.s = [String(v)]; });

@@ -58,6 +58,9 @@ pub struct Session {
     pub token: String,
     /// Host names (with port) the `Host` header may give.
     pub hosts: Vec<String>,
+    /// The port, when the server listens on every address (then any literal IP with
+    /// this port is a valid `Host`).
+    pub any_port: Option<u16>,
     /// The most threads a render may use.
     pub max_threads: usize,
     /// Value histogram (256 bins over [min, max]) and the range.
@@ -163,8 +166,16 @@ fn same(a: &str, b: &str) -> bool {
 impl Session {
     /// The security checks every request passes first: `Host`, `Origin`, token.
     pub fn admit(&self, rq: &Request) -> Result<(), Reply> {
+        // Bound to every address: a literal IP with this port is this server (DNS
+        // rebinding needs a name).
+        let any_ip = |h: &str| {
+            self.any_port.is_some_and(|p| {
+                h.parse::<std::net::SocketAddr>()
+                    .is_ok_and(|a| a.port() == p)
+            })
+        };
         match get_header(rq, "Host") {
-            Some(h) if self.hosts.iter().any(|x| x.eq_ignore_ascii_case(h)) => {}
+            Some(h) if self.hosts.iter().any(|x| x.eq_ignore_ascii_case(h)) || any_ip(h) => {}
             Some(h) => return Err(Reply(403, format!("Host \"{h}\" is not this server"))),
             None => return Err(Reply(403, "no Host header".into())),
         }
@@ -172,7 +183,8 @@ impl Session {
             let ok = self
                 .hosts
                 .iter()
-                .any(|h| o.eq_ignore_ascii_case(&format!("http://{h}")));
+                .any(|h| o.eq_ignore_ascii_case(&format!("http://{h}")))
+                || o.strip_prefix("http://").is_some_and(any_ip);
             if !ok {
                 return Err(Reply(403, format!("Origin \"{o}\" is not this server")));
             }
