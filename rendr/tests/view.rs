@@ -86,11 +86,14 @@ fn get(v: &Viewer, path: &str, headers: &str) -> (u16, Vec<u8>) {
 }
 
 fn post(v: &Viewer, body: &str, headers: &str) -> (u16, Vec<u8>) {
+    post_to(&v.addr, &v.token, body, headers)
+}
+
+fn post_to(addr: &str, token: &str, body: &str, headers: &str) -> (u16, Vec<u8>) {
     let head = format!(
-        "POST /render?t={} HTTP/1.1\r\nHost: {}\r\nContent-Type: application/json{headers}",
-        v.token, v.addr
+        "POST /render?t={token} HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json{headers}"
     );
-    send(&v.addr, &head, body.as_bytes())
+    send(addr, &head, body.as_bytes())
 }
 
 fn text(b: &[u8]) -> String {
@@ -407,4 +410,25 @@ fn the_command_line_lut_and_lights_serve_requests_without_their_own() {
     assert!(st.success());
     assert!(std::fs::read(dir.join("go.png")).unwrap() == png);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_newer_request_cancels_an_older_render_under_way() {
+    let v = start(&[]);
+    // A slow render (about 1.4 G samples unskipped on one thread), then a newer request.
+    let mut slow = MIP.to_vec();
+    (slow[7], slow[9], slow[10]) = ("0.2", "1024", "1024");
+    slow.extend_from_slice(&["-ess", "false"]);
+    let (addr, token) = (v.addr.clone(), v.token.clone());
+    let body = render_body(1, &slow, None, None);
+    let t0 = std::time::Instant::now();
+    let first = std::thread::spawn(move || (post_to(&addr, &token, &body, ""), t0.elapsed()));
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    let (s, _) = post(&v, &render_body(2, MIP, None, None), "");
+    assert_eq!(s, 200);
+    let ((s, body), took) = first.join().unwrap();
+    assert_eq!(s, 409, "{}", text(&body));
+    // Stopped while rendering (not refused on arrival: it came first).
+    assert!(text(&body).contains("cancelled"), "{}", text(&body));
+    assert!(took.as_secs_f64() < 10.0, "cancelled only after {took:?}");
 }

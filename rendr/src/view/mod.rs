@@ -345,7 +345,7 @@ impl Session {
         }
         let entry = run.entry(client.to_string()).or_insert((0, Vec::new()));
         if seq < entry.0 {
-            return Err(Reply(409, "cancelled by a newer request".into()));
+            return Err(Reply(409, "superseded by a newer request".into()));
         }
         entry.0 = seq;
         for (s, f) in &entry.1 {
