@@ -42,6 +42,12 @@ pub fn quantize(v: f64, min: f64, max: f64) -> u8 {
 /// # Errors
 /// As [`encode_png`].
 pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
+    let (buf, color) = png_pixels(img, range);
+    encode_png(&buf, img.size[0], img.size[1], color)
+}
+
+/// The 8-bit pixels [`png_bytes`] encodes (the same quantization), with their layout.
+pub fn png_pixels(img: &Image, range: Option<(f64, f64)>) -> (Vec<u8>, PngColor) {
     let [w, h] = img.size;
     let c = img.channels;
     let npx = w * h;
@@ -75,7 +81,58 @@ pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
             )
         }
     };
-    encode_png(&buf, w, h, color)
+    (buf, color)
+}
+
+/// Encodes frames of 8-bit pixels (each `w` × `h` of `color`, top row first) as an
+/// animated PNG shown at `fps` frames per second, looping forever. Viewers without APNG
+/// support show the first frame.
+///
+/// # Errors
+/// No frames, frames of the wrong length, a frame rate outside 1..=1000, or an encoder
+/// failure; without the `png` cargo feature.
+pub fn encode_apng(
+    frames: &[Vec<u8>],
+    w: usize,
+    h: usize,
+    color: PngColor,
+    fps: u16,
+) -> Result<Vec<u8>> {
+    let per = w * h * if color == PngColor::Rgb { 3 } else { 1 };
+    if frames.is_empty() || frames.iter().any(|f| f.len() != per) {
+        return Err(Error::msg("an animated PNG needs frames of one size"));
+    }
+    if !(1..=1000).contains(&fps) {
+        return Err(Error::msg(format!("frame rate {fps} is not in 1..=1000")));
+    }
+    let n = u32::try_from(frames.len()).map_err(|_| Error::msg("too many frames"))?;
+    #[cfg(feature = "png")]
+    {
+        let fail = |e: png::EncodingError| Error::msg(format!("APNG encoding failed: {e}"));
+        let mut out = Vec::new();
+        let mut enc = png::Encoder::new(&mut out, w as u32, h as u32);
+        enc.set_color(match color {
+            PngColor::Grey => png::ColorType::Grayscale,
+            PngColor::Rgb => png::ColorType::Rgb,
+        });
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_animated(n, 0).map_err(fail)?;
+        enc.set_frame_delay(1, fps).map_err(fail)?;
+        let mut wr = enc.write_header().map_err(fail)?;
+        for f in frames {
+            wr.write_image_data(f).map_err(fail)?;
+        }
+        wr.finish().map_err(fail)?;
+        Ok(out)
+    }
+    #[cfg(not(feature = "png"))]
+    {
+        let _ = n;
+        Err(
+            Error::msg("PNG output needs rnd-std's cargo feature \"png\", which this build lacks")
+                .with_kind(crate::ErrorKind::Output),
+        )
+    }
 }
 
 /// The pixel layout of 8-bit PNG data.
@@ -131,8 +188,11 @@ pub fn write_png_rgb_to(out: Output, buf: &[u8], w: usize, h: usize) -> Result<(
     commit_bytes(out, &encode_png(buf, w, h, PngColor::Rgb)?)
 }
 
-/// Commits encoded bytes to `out`.
-fn commit_bytes(out: Output, bytes: &[u8]) -> Result<()> {
+/// Writes `bytes` to `out` and puts it in place.
+///
+/// # Errors
+/// As [`Output::commit`].
+pub fn commit_bytes(out: Output, bytes: &[u8]) -> Result<()> {
     out.commit(|f| {
         f.write_all(bytes)
             .map_err(|e| Error::msg(format!("write failed: {e}")))

@@ -12,8 +12,150 @@ use rnd_core::probe::Probe;
 use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo};
 use rnd_std::image_out::{write_image_to, Image};
 
-use crate::args::{def, flag, opt, parse_named, req, Args, CmdSpec};
+use crate::args::{def, flag, opt, parse_named, Args, CmdSpec};
 use crate::fmt::{g6, list6};
+
+/// The option table of `go` and the commands that render like it (`turn`): `-i`,
+/// `-k`, the camera options and the render options [`params`] reads, then `$extra`.
+macro_rules! go_opts {
+    ($($extra:expr),* $(,)?) => {
+        with_camera_opts!(
+            [
+                    $crate::args::req(&["i", "-input"], 1, "vol", "input volume: NRRD, NIfTI, MetaImage or DICOM (a series folder)"),
+                    $crate::args::req(
+                        &["k", "-kern"],
+                        1,
+                        "kernel",
+                        "reconstruction kernel (see \"rendr klist\")",
+                    ),
+            ],
+            [
+                    $crate::args::def(
+                        &["s", "-planesep"],
+                        1,
+                        "0.1",
+                        "sep",
+                        "distance between sampling planes (0: one sample on the near plane)",
+                    ),
+                    $crate::args::flag(
+                        &["s1s", "-sampleonce"],
+                        "take one sample on the near plane only",
+                    ),
+                    $crate::args::def(
+                        &["p", "-probe"],
+                        1,
+                        "val",
+                        "probe",
+                        "what to measure at each sample",
+                    ),
+                    $crate::args::def(
+                        &["b", "-blend"],
+                        1,
+                        "max",
+                        "blend",
+                        "how to combine the samples of a ray",
+                    ),
+                    $crate::args::def(
+                        &["gmc"],
+                        1,
+                        "0",
+                        "min gradmag",
+                        "curvature probes (k1 k2 meancurv gausscurv): 0 where the gradient magnitude is at or below this",
+                    ),
+                    $crate::args::def(
+                        &["ov", "-outsideval"],
+                        1,
+                        "0",
+                        "val",
+                        "value for rays with nothing to blend (may be nan)",
+                    ),
+                    $crate::args::opt(
+                        &["nt"],
+                        1,
+                        "threads",
+                        "number of threads (0 or 1: no extra threads; default: all cores)",
+                    ),
+                    $crate::args::def(
+                        &["us"],
+                        1,
+                        "1",
+                        "unitstep",
+                        "unit step length for opacity correction (world units)",
+                    ),
+                    $crate::args::def(
+                        &["a1"],
+                        1,
+                        "1",
+                        "alphanear1",
+                        "early ray termination opacity, in (0,1]; 1 = off",
+                    ),
+                    $crate::args::opt(
+                        &["lut"],
+                        1,
+                        "lut",
+                        "lookup table from \"rendr lgen\" or \"rendr lgen2\" (needed for rgba, rgbalit)",
+                    ),
+                    $crate::args::opt(
+                        &["lev"],
+                        1,
+                        "levoy",
+                        "Levoy iso-contour opacities (v r a per line)",
+                    ),
+                    $crate::args::opt(&["lit"], 1, "lights", "light file (needed for rgbalit)"),
+                    $crate::args::def(
+                        &["ph"],
+                        4,
+                        "0.2 0.8 0.1 150",
+                        "ka kd ks p",
+                        "Blinn-Phong ambient, diffuse, specular, exponent",
+                    ),
+                    $crate::args::def(
+                        &["dcn"],
+                        3,
+                        "1 1 1",
+                        "r g b",
+                        "depth-cue colour at the near plane",
+                    ),
+                    $crate::args::def(
+                        &["dcf"],
+                        3,
+                        "1 1 1",
+                        "r g b",
+                        "depth-cue colour at the far plane",
+                    ),
+                    $crate::args::def(
+                        &["ess"],
+                        1,
+                        "true",
+                        "bool",
+                        "skip samples that cannot change the pixel: zero opacity under over, below the running maximum under max of v or gm (exact; false = convolve every sample)",
+                    ),
+                    $crate::args::def(
+                        &["fast"],
+                        1,
+                        "true",
+                        "bool",
+                        "accelerated ray loop: sample only each ray's inside stretch, batched \
+                         (exact; false = the plain one-sample loop)",
+                    ),
+                    $crate::args::def(
+                        &["ref"],
+                        1,
+                        "true",
+                        "bool",
+                        "reference arithmetic: the course reference program's f32 operation \
+                         order (camera, ray steps, kernel formulas, summation), which \
+                         reproduces its images bit for bit where possible; false = the f64-geometry \
+                         engine with separable sums, 1.65-2.2x quicker, within 1e-4 relative \
+                         on nearly every pixel",
+                    ),
+                    $crate::args::opt(&["q"], 2, "min max", "quantization range for PNG output"),
+                $($extra),*
+            ]
+        )
+    };
+}
+pub(crate) use go_opts;
 
 pub static SPEC: CmdSpec = CmdSpec {
     name: "go",
@@ -43,163 +185,32 @@ pub static SPEC: CmdSpec = CmdSpec {
            compositing, needs rgba or rgbalit). min l2 variance sd median are Teem's \
            measures (teem-mrender -m min L2 variance stdv median).",
     response_files: true,
-    opts: with_camera_opts!(
-        [
-            req(&["i", "-input"], 1, "vol", "input volume: NRRD, NIfTI, MetaImage or DICOM (a series folder)"),
-            req(
-                &["k", "-kern"],
-                1,
-                "kernel",
-                "reconstruction kernel (see \"rendr klist\")",
-            ),
-        ],
-        [
-            def(
-                &["s", "-planesep"],
-                1,
-                "0.1",
-                "sep",
-                "distance between sampling planes (0: one sample on the near plane)",
-            ),
-            flag(
-                &["s1s", "-sampleonce"],
-                "take one sample on the near plane only",
-            ),
-            def(
-                &["p", "-probe"],
-                1,
-                "val",
-                "probe",
-                "what to measure at each sample",
-            ),
-            def(
-                &["b", "-blend"],
-                1,
-                "max",
-                "blend",
-                "how to combine the samples of a ray",
-            ),
-            def(
-                &["gmc"],
-                1,
-                "0",
-                "min gradmag",
-                "curvature probes (k1 k2 meancurv gausscurv): 0 where the gradient magnitude is at or below this",
-            ),
-            def(
-                &["ov", "-outsideval"],
-                1,
-                "0",
-                "val",
-                "value for rays with nothing to blend (may be nan)",
-            ),
-            opt(
-                &["nt"],
-                1,
-                "threads",
-                "number of threads (0 or 1: no extra threads; default: all cores)",
-            ),
-            def(
-                &["us"],
-                1,
-                "1",
-                "unitstep",
-                "unit step length for opacity correction (world units)",
-            ),
-            def(
-                &["a1"],
-                1,
-                "1",
-                "alphanear1",
-                "early ray termination opacity, in (0,1]; 1 = off",
-            ),
-            opt(
-                &["lut"],
-                1,
-                "lut",
-                "lookup table from \"rendr lgen\" or \"rendr lgen2\" (needed for rgba, rgbalit)",
-            ),
-            opt(
-                &["lev"],
-                1,
-                "levoy",
-                "Levoy iso-contour opacities (v r a per line)",
-            ),
-            opt(&["lit"], 1, "lights", "light file (needed for rgbalit)"),
-            def(
-                &["ph"],
-                4,
-                "0.2 0.8 0.1 150",
-                "ka kd ks p",
-                "Blinn-Phong ambient, diffuse, specular, exponent",
-            ),
-            def(
-                &["dcn"],
-                3,
-                "1 1 1",
-                "r g b",
-                "depth-cue colour at the near plane",
-            ),
-            def(
-                &["dcf"],
-                3,
-                "1 1 1",
-                "r g b",
-                "depth-cue colour at the far plane",
-            ),
-            flag(&["t"], "append a per-pixel time channel (milliseconds)"),
-            flag(
-                &["petc"],
-                "press Enter to continue (wait before rendering; for profiling)",
-            ),
-            def(
-                &["db"],
-                2,
-                "-1 -1",
-                "h v",
-                "trace only the ray through pixel (h, v), no image",
-            ),
-            def(
-                &["sp"],
-                1,
-                "true",
-                "bool",
-                "show progress (only when stderr is a terminal)",
-            ),
-            def(
-                &["ess"],
-                1,
-                "true",
-                "bool",
-                "skip samples that cannot change the pixel: zero opacity under over, below the running maximum under max of v or gm (exact; false = convolve every sample)",
-            ),
-            def(
-                &["fast"],
-                1,
-                "true",
-                "bool",
-                "accelerated ray loop: sample only each ray's inside stretch, batched \
-                 (exact; false = the plain one-sample loop)",
-            ),
-            def(
-                &["ref"],
-                1,
-                "true",
-                "bool",
-                "reference arithmetic: the course reference program's f32 operation \
-                 order (camera, ray steps, kernel formulas, summation), which \
-                 reproduces its images bit for bit where possible; false = the f64-geometry \
-                 engine with separable sums, 1.65-2.2x quicker, within 1e-4 relative \
-                 on nearly every pixel",
-            ),
-            opt(&["q"], 2, "min max", "quantization range for PNG output"),
-            opt(
-                &["o"],
-                1,
-                "fout",
-                "output image (.nrrd, or .png; - = NRRD on stdout)",
-            ),
-        ]
+    opts: go_opts!(
+        flag(&["t"], "append a per-pixel time channel (milliseconds)"),
+        flag(
+            &["petc"],
+            "press Enter to continue (wait before rendering; for profiling)",
+        ),
+        def(
+            &["db"],
+            2,
+            "-1 -1",
+            "h v",
+            "trace only the ray through pixel (h, v), no image",
+        ),
+        def(
+            &["sp"],
+            1,
+            "true",
+            "bool",
+            "show progress (only when stderr is a terminal)",
+        ),
+        opt(
+            &["o"],
+            1,
+            "fout",
+            "output image (.nrrd, or .png; - = NRRD on stdout)",
+        ),
     ),
     pos: &[],
 };

@@ -36,6 +36,7 @@ mod m4ai;
 mod mgo;
 mod sdg;
 mod teval;
+mod turn;
 mod view;
 
 /// A sub-command: its option table, other names, and what it runs.
@@ -119,6 +120,11 @@ pub static COMMANDS: &[Command] = &[
         spec: &convert::SPEC,
         aliases: &[],
         run: convert::run,
+    },
+    Command {
+        spec: &turn::SPEC,
+        aliases: &[],
+        run: turn::run,
     },
     Command {
         spec: &view::SPEC,

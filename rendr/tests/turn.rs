@@ -1,0 +1,201 @@
+//! `rendr turn`: each frame is `rendr go` with the camera PREFIX-cams.txt gives it (byte
+//! for byte), turntable and key-frame cameras where geometry puts them, the animated
+//! PNG holds the frames, and bad input fails before anything is written.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const RENDR: &str = env!("CARGO_BIN_EXE_rendr");
+
+fn data(f: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data")
+        .join(f)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rendr-test-{}-turn-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The render options shared by `turn` and `go` (camera position given separately).
+const COMMON: &[&str] = &[
+    "-k", "tent", "-p", "v", "-b", "max", "-s", "2", "-nc", "-150", "-fc", "150", "-sz", "40",
+    "32", "-nt", "2",
+];
+
+fn turn(dir: &Path, extra: &[&str]) -> std::process::Output {
+    Command::new(RENDR)
+        .arg("turn")
+        .arg("-i")
+        .arg(data("itk-t1-head.nrrd"))
+        .args(COMMON)
+        .args(extra)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// Each line of PREFIX-cams.txt: the frame's file and its camera words.
+fn cams(dir: &Path, prefix: &str) -> Vec<(String, Vec<String>)> {
+    std::fs::read_to_string(dir.join(format!("{prefix}-cams.txt")))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let mut w = l.split_whitespace().map(str::to_string);
+            (w.next().unwrap(), w.collect())
+        })
+        .collect()
+}
+
+fn nums(words: &[String], opt: &str, n: usize) -> Vec<f64> {
+    let i = words.iter().position(|w| w == opt).unwrap();
+    words[i + 1..i + 1 + n]
+        .iter()
+        .map(|w| w.parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn every_frame_is_go_with_its_camera() {
+    let dir = tmp("frames");
+    let out = turn(
+        &dir,
+        &[
+            "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1",
+            "-fov", "30", "-n", "4", "-o", "f", "-apng", "anim.png",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cams = cams(&dir, "f");
+    assert_eq!(cams.len(), 4);
+    for (file, words) in &cams {
+        let go = Command::new(RENDR)
+            .arg("go")
+            .arg("-i")
+            .arg(data("itk-t1-head.nrrd"))
+            .args(COMMON)
+            .args(words)
+            .args(["-o", "go.png"])
+            .current_dir(&dir)
+            .status()
+            .unwrap();
+        assert!(go.success());
+        let a = std::fs::read(dir.join(file)).unwrap();
+        let b = std::fs::read(dir.join("go.png")).unwrap();
+        assert!(a == b, "{file} differs from rendr go {}", words.join(" "));
+    }
+    // A quarter turn apart about the up vector (z) through the look-at point: frame 2 is
+    // half a turn from frame 0, so its look-from point is mirrored through the axis.
+    let fr2 = nums(&cams[2].1, "-fr", 3);
+    let want = [-127.0 - 450.0, -162.5 - 150.0, 260.0];
+    for a in 0..3 {
+        assert!((fr2[a] - want[a]).abs() < 1e-9, "{fr2:?} vs {want:?}");
+    }
+    assert_eq!(nums(&cams[2].1, "-at", 3), vec![-127.0, -162.5, 110.0]);
+    // The animated PNG: an acTL chunk saying 4 frames, and its default image is frame 0.
+    let apng = std::fs::read(dir.join("anim.png")).unwrap();
+    let at = apng
+        .windows(4)
+        .position(|w| w == b"acTL")
+        .expect("an acTL chunk");
+    assert_eq!(&apng[at + 4..at + 8], &4u32.to_be_bytes());
+    let first = image::load_from_memory(&apng).unwrap().to_luma8();
+    let f0 = image::load_from_memory(&std::fs::read(dir.join("f-0000.png")).unwrap())
+        .unwrap()
+        .to_luma8();
+    assert!(first == f0, "the animation's first frame is not frame 0");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn key_frames_are_passed_through_and_interpolated() {
+    let dir = tmp("keys");
+    std::fs::write(
+        dir.join("keys.txt"),
+        "# fr at up fov\n\
+         323 -12.5 260   -127 -162.5 110   0 0 1   30\n\
+         -127 -612.5 110 -127 -162.5 110   0 0 1   20  # from the front\n\
+         -577 -312.5 260 -127 -162.5 110   0 0 1   30\n",
+    )
+    .unwrap();
+    let cam = [
+        "-fr", "1", "2", "3", "-at", "0", "0", "0", "-up", "0", "0", "1", "-fov", "9",
+    ];
+    let out = turn(
+        &dir,
+        &[&cam[..], &["-key", "keys.txt", "-n", "5", "-o", "k"]].concat(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c = cams(&dir, "k");
+    assert_eq!(c.len(), 5);
+    assert_eq!(nums(&c[0].1, "-fr", 3), vec![323.0, -12.5, 260.0]);
+    assert_eq!(nums(&c[2].1, "-fr", 3), vec![-127.0, -612.5, 110.0]);
+    assert_eq!(nums(&c[2].1, "-fov", 1), vec![20.0]);
+    assert_eq!(nums(&c[4].1, "-fr", 3), vec![-577.0, -312.5, 260.0]);
+    assert_eq!(nums(&c[1].1, "-fr", 3), vec![98.0, -312.5, 185.0]);
+    assert_eq!(nums(&c[1].1, "-fov", 1), vec![25.0]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_fails_before_writing() {
+    let dir = tmp("bad");
+    let cam = [
+        "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1", "-fov",
+        "30",
+    ];
+    std::fs::write(dir.join("short.txt"), "1 2 3 4 5 6 7 8 9 10\n").unwrap();
+    std::fs::write(
+        dir.join("par.txt"),
+        "0 0 9 0 0 0 0 0 1 30\n9 0 0 0 0 0 0 0 1 30\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("nan.txt"),
+        "1 2 3 4 5 6 7 8 9\n1 2 3 4 5 6 7 8 9 10\n",
+    )
+    .unwrap();
+    for (extra, msg) in [
+        (&["-n", "0", "-o", "x"][..], "-n"),
+        (&["-n", "3", "-o", "x", "-f", "gif"], "-f"),
+        (&["-n", "3", "-o", "x", "-axis", "0", "0", "0"], "-axis"),
+        (
+            &["-n", "3", "-o", "x", "-key", "short.txt"],
+            "at least 2 key frames",
+        ),
+        (&["-n", "3", "-o", "x", "-key", "nan.txt"], "line 1"),
+        (
+            &["-n", "3", "-o", "x", "-key", "missing.txt"],
+            "missing.txt",
+        ),
+        (&["-n", "3", "-o", "no/such/dir/x"], "-o"),
+        (&["-n", "3", "-o", "x", "-fps", "0"], "-fps"),
+        // Up parallel to the view direction on a frame of the path.
+        (&["-n", "4", "-o", "x", "-key", "par.txt"], "frame 0"),
+    ] {
+        let out = turn(&dir, &[&cam[..], extra].concat());
+        assert!(!out.status.success(), "{extra:?} succeeded");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(msg), "{extra:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{extra:?}: one line: {err}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.starts_with('x') || f.starts_with(".x"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
