@@ -6,6 +6,8 @@ mod out;
 mod args;
 mod cmd;
 mod fmt;
+#[cfg(feature = "mpi")]
+mod job;
 mod view;
 
 use std::process::ExitCode;
@@ -203,6 +205,9 @@ fn run() -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    // Under mpirun (with the `mpi` feature) MPI lives until the command returns.
+    #[cfg(feature = "mpi")]
+    let _universe = job::start();
     match (c.run)(&parsed) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -277,6 +277,15 @@ fn trace_pixel(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName, px
 }
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
+    #[cfg(feature = "mpi")]
+    if let Some(job) = crate::job::ranks() {
+        bail!(
+            "run under mpirun with {} processes: go renders in one process (bricked \
+             rendering across processes is not built yet; \"rendr turn\" deals frames to \
+             processes)",
+            job.size
+        );
+    }
     run_cached(a, &mut VolumeCache::default(), &[])
 }
 

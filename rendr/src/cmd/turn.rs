@@ -165,7 +165,29 @@ fn cam_words((fr, at, up, fov): &Cam) -> String {
     format!("-fr {} -at {} -up {} -fov {fov}", v(fr), v(at), v(up))
 }
 
-pub fn run(a: &Args) -> anyhow::Result<()> {
+/// A rendered frame: its file's bytes and, for an animation, its 8-bit pixels.
+#[derive(Default)]
+struct Frame {
+    file: Vec<u8>,
+    anim: Vec<u8>,
+}
+
+/// What [`render`] hands to [`write`].
+struct Rendered {
+    n: usize,
+    cams: Vec<Cam>,
+    /// Per frame; `None` for frames another rank renders.
+    frames: Vec<Option<Frame>>,
+    colour: PngColor,
+    size: [usize; 2],
+    fps: u16,
+    prefix: String,
+    ext: &'static str,
+    inputs: Vec<String>,
+}
+
+/// Checks everything, then renders the frames `i` with `i % size == rank`.
+fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
     let (mut params, kernel, threads) = super::go::params(a)?;
     let n: usize = a.get("n")?;
     if !(1..=100_000).contains(&n) {
@@ -228,6 +250,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         rnd_core::camera::Camera::new(spec).with_context(|| format!("frame {i}'s camera"))?;
     }
     let prefix = a.get_str("o").unwrap_or_default();
+    let apng = a.given("apng");
     let ext = if nrrd { "nrrd" } else { "png" };
     let name = |i: usize| format!("{prefix}-{i:04}.{ext}");
     let input = a.get_str("i").unwrap_or_default();
@@ -261,10 +284,13 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         .transpose()?;
     let vol = rnd_std::volume_io::load_volume_threads(Path::new(&input), threads)
         .with_context(|| input.clone())?;
-    let mut files: Vec<Vec<u8>> = Vec::with_capacity(n);
-    let mut anim: Vec<Vec<u8>> = Vec::new();
+    let mut frames: Vec<Option<Frame>> = Vec::with_capacity(n);
     let mut colour = PngColor::Rgb;
     for (i, cam) in cams.iter().enumerate() {
+        if i % size != rank {
+            frames.push(None);
+            continue;
+        }
         (
             params.camera.from,
             params.camera.at,
@@ -287,6 +313,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
             channels: spec.channels(),
             size: [w as usize, h as usize],
         };
+        let mut frame = Frame::default();
         if nrrd {
             let mut nr = rnd_std::nrrd::Nrrd::new(
                 vec![img.channels, img.size[0], img.size[1]],
@@ -297,36 +324,104 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
                 super::content("turn", a),
                 cam_words(cam)
             ));
-            let mut out = Vec::new();
-            rnd_std::nrrd::write_to(&nr, Default::default(), &mut out)?;
-            files.push(out);
+            rnd_std::nrrd::write_to(&nr, Default::default(), &mut frame.file)?;
         }
-        if !nrrd || a.given("apng") {
+        if !nrrd || apng {
             let (buf, col) = png_pixels(&img, q);
             colour = col;
             if !nrrd {
-                files.push(encode_png(&buf, img.size[0], img.size[1], col)?);
+                frame.file = encode_png(&buf, img.size[0], img.size[1], col)?;
             }
-            if a.given("apng") {
-                anim.push(buf);
+            if apng {
+                frame.anim = buf;
             }
         }
+        frames.push(Some(frame));
     }
-    // All rendered: the frames, the cameras, the animation.
-    for (i, bytes) in files.iter().enumerate() {
+    Ok(Rendered {
+        n,
+        cams,
+        frames,
+        colour,
+        size: [w as usize, h as usize],
+        fps,
+        prefix,
+        ext,
+        inputs: inputs.iter().map(|s| s.to_string()).collect(),
+    })
+}
+
+/// Writes the frames (all rendered), the cameras and the animation.
+fn write(a: &Args, r: Rendered) -> anyhow::Result<()> {
+    let inputs: Vec<&str> = r.inputs.iter().map(String::as_str).collect();
+    let name = |i: usize| format!("{}-{i:04}.{}", r.prefix, r.ext);
+    let mut anim = Vec::new();
+    for (i, f) in r.frames.into_iter().enumerate() {
+        let f = f.with_context(|| format!("frame {i} is missing"))?;
         let out = super::output(&name(i), a, &inputs).context("-o")?;
-        commit_bytes(out, bytes)?;
+        commit_bytes(out, &f.file)?;
+        anim.push(f.anim);
     }
     let mut cams_txt = String::from("# rendr turn: each frame's camera as rendr go options\n");
-    for (i, cam) in cams.iter().enumerate() {
+    for (i, cam) in r.cams.iter().enumerate() {
         cams_txt.push_str(&format!("{} {}\n", name(i), cam_words(cam)));
     }
-    let out = super::output(&format!("{prefix}-cams.txt"), a, &inputs).context("-o")?;
+    let out = super::output(&format!("{}-cams.txt", r.prefix), a, &inputs).context("-o")?;
     commit_bytes(out, cams_txt.as_bytes())?;
     if let Some(f) = a.get_str("apng") {
-        let bytes = encode_apng(&anim, w as usize, h as usize, colour, fps).context("-apng")?;
+        let [w, h] = r.size;
+        let bytes = encode_apng(&anim, w, h, r.colour, r.fps).context("-apng")?;
         let out = super::output(&f, a, &inputs).context("-apng")?;
         commit_bytes(out, &bytes)?;
     }
+    let _ = r.n;
     Ok(())
+}
+
+pub fn run(a: &Args) -> anyhow::Result<()> {
+    #[cfg(feature = "mpi")]
+    if let Some(job) = crate::job::ranks() {
+        return run_ranks(a, &job);
+    }
+    write(a, render(a, 0, 1)?)
+}
+
+/// `turn` under MPI: frame i renders on rank i mod N; rank 0 gathers and writes them
+/// once every rank has succeeded (a failing rank stops the job with its message and
+/// nothing is written).
+#[cfg(feature = "mpi")]
+fn run_ranks(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
+    let r = render(a, job.rank, job.size);
+    if job.any(r.is_err()) {
+        // The failing ranks report; the others stop quietly.
+        return match r {
+            Err(e) => Err(e.context(format!("rank {} of {}", job.rank, job.size))),
+            Ok(_) => Ok(()),
+        };
+    }
+    let mut r = r?;
+    let apng = a.given("apng");
+    if job.rank == 0 {
+        for i in 0..r.n {
+            let from = i % job.size;
+            if from != 0 {
+                let file = job.receive_from(from);
+                let anim = if apng {
+                    job.receive_from(from)
+                } else {
+                    Vec::new()
+                };
+                r.frames[i] = Some(Frame { file, anim });
+            }
+        }
+        write(a, r)
+    } else {
+        for f in r.frames.iter().flatten() {
+            job.send_to_root(&f.file);
+            if apng {
+                job.send_to_root(&f.anim);
+            }
+        }
+        Ok(())
+    }
 }
