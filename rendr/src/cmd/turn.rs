@@ -172,7 +172,7 @@ struct Frame {
     anim: Vec<u8>,
 }
 
-/// What [`render`] hands to [`write`].
+/// What [`render()`] hands to [`write()`].
 struct Rendered {
     n: usize,
     cams: Vec<Cam>,
