@@ -46,6 +46,7 @@ extern crate alloc;
 pub mod affine;
 pub(crate) mod arith;
 pub mod blend;
+pub mod brick;
 pub mod camera;
 pub mod classify;
 pub mod convo;
