@@ -354,6 +354,30 @@ pub fn params(a: &Args) -> anyhow::Result<(RenderParams, KernelName, usize)> {
     Ok((params, kernel, threads))
 }
 
+/// The LUT (`-lut`), Levoy opacities (`-lev`) and lights (`-lit`) the options name.
+pub type Classification = (
+    Option<rnd_core::txf::Lut>,
+    Option<rnd_core::txf::Levoy>,
+    Option<Vec<rnd_core::light::Light>>,
+);
+
+/// Reads the files of `-lut`, `-lev` and `-lit` (those given).
+pub fn classification(a: &Args) -> anyhow::Result<Classification> {
+    let lut = a
+        .get_str("lut")
+        .map(|f| rnd_std::files::load_lut(Path::new(&f)))
+        .transpose()?;
+    let lev = a
+        .get_str("lev")
+        .map(|f| rnd_std::files::load_levoy(Path::new(&f)))
+        .transpose()?;
+    let lights = a
+        .get_str("lit")
+        .map(|f| rnd_std::files::load_lights(Path::new(&f)))
+        .transpose()?;
+    Ok((lut, lev, lights))
+}
+
 /// `go` with volumes taken from (and added to) `cache`; `extra_inputs` are files the
 /// output must not overwrite besides this command's own (`mgo`'s command file).
 pub fn run_cached(
@@ -390,18 +414,7 @@ pub fn run_cached(
         (Some(o), false) => Some(super::output(&o.to_string_lossy(), a, &inputs).context("-o")?),
         _ => None,
     };
-    let lut = a
-        .get_str("lut")
-        .map(|f| rnd_std::files::load_lut(Path::new(&f)))
-        .transpose()?;
-    let lev = a
-        .get_str("lev")
-        .map(|f| rnd_std::files::load_levoy(Path::new(&f)))
-        .transpose()?;
-    let lights = a
-        .get_str("lit")
-        .map(|f| rnd_std::files::load_lights(Path::new(&f)))
-        .transpose()?;
+    let (lut, lev, lights) = classification(a)?;
     let spec = RenderSpec::new(
         params,
         lut.as_ref(),

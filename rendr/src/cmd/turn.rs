@@ -270,18 +270,7 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
         rnd_std::check_memory(per.saturating_mul(n as u64), &format!("{n} NRRD frames"))
             .context("-n")?;
     }
-    let lut = a
-        .get_str("lut")
-        .map(|f| rnd_std::files::load_lut(Path::new(&f)))
-        .transpose()?;
-    let lev = a
-        .get_str("lev")
-        .map(|f| rnd_std::files::load_levoy(Path::new(&f)))
-        .transpose()?;
-    let lights = a
-        .get_str("lit")
-        .map(|f| rnd_std::files::load_lights(Path::new(&f)))
-        .transpose()?;
+    let (lut, lev, lights) = super::go::classification(a)?;
     let vol = rnd_std::volume_io::load_volume_threads(Path::new(&input), threads)
         .with_context(|| input.clone())?;
     let mut frames: Vec<Option<Frame>> = Vec::with_capacity(n);
