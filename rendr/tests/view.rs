@@ -235,6 +235,18 @@ fn bad_render_requests_get_4xx_with_a_message() {
     let (s, body) = post(&v, &render_body(3, &args, None, None), "");
     assert_eq!(s, 400);
     assert!(text(&body).contains("nokernel"), "{}", text(&body));
+    // A quantization range go refuses is refused here too, before any render.
+    for q in [["5", "1"], ["0", "NaN"]] {
+        let mut args = MIP.to_vec();
+        args.extend_from_slice(&["-q", q[0], q[1]]);
+        let (s, body) = post(&v, &render_body(3, &args, None, None), "");
+        assert_eq!(s, 400, "-q {q:?}: {}", text(&body));
+        assert!(
+            text(&body).contains("-q: need finite min < max"),
+            "{}",
+            text(&body)
+        );
+    }
     // Too large an image, too large a body, malformed JSON, an unknown field.
     let mut args = MIP.to_vec();
     (args[9], args[10]) = ("4096", "4096");

@@ -354,6 +354,18 @@ pub fn params(a: &Args) -> anyhow::Result<(RenderParams, KernelName, usize)> {
     Ok((params, kernel, threads))
 }
 
+/// The PNG quantization range `-q` asks for (checked: finite, min < max), if given.
+pub fn quant_range(a: &Args) -> anyhow::Result<Option<(f64, f64)>> {
+    if !a.given("q") {
+        return Ok(None);
+    }
+    let [lo, hi] = a.get_arr::<f64, 2>("q")?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        bail!("-q: need finite min < max (got {lo} {hi})");
+    }
+    Ok(Some((lo, hi)))
+}
+
 /// The LUT (`-lut`), Levoy opacities (`-lev`) and lights (`-lit`) the options name.
 pub type Classification = (
     Option<rnd_core::txf::Lut>,
@@ -389,15 +401,7 @@ pub fn run_cached(
     let db = a.get_arr::<i32, 2>("db")?;
     let debug = db[0] >= 0 || db[1] >= 0;
     let progress: bool = a.get("sp")?;
-    let q = if a.given("q") {
-        let [lo, hi] = a.get_arr::<f64, 2>("q")?;
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            bail!("-q: need finite min < max (got {lo} {hi})");
-        }
-        Some((lo, hi))
-    } else {
-        None
-    };
+    let q = quant_range(a)?;
     let out: Option<PathBuf> = a.get_str("o").map(PathBuf::from);
     if out.is_none() && !debug {
         bail!("missing -o (output file), needed unless -db is given");

@@ -210,15 +210,7 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
         .ok()
         .filter(|f| (1..=1000).contains(f))
         .context("-fps: need a frame rate in 1..=1000")?;
-    let q = if a.given("q") {
-        let [lo, hi] = a.get_arr::<f64, 2>("q")?;
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            bail!("-q: need finite min < max (got {lo} {hi})");
-        }
-        Some((lo, hi))
-    } else {
-        None
-    };
+    let q = super::go::quant_range(a)?;
     let c = params.camera;
     let base: Cam = (c.from, c.at, c.up, c.fov);
     let axis = match a.given("axis") {

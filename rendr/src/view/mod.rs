@@ -269,6 +269,7 @@ impl Session {
     pub fn render(&self, req: &RenderRequest) -> Result<(Vec<u8>, &'static str), Reply> {
         let a = request_args(&req.args)?;
         let (params, kernel, threads) = crate::cmd::go::params(&a)?;
+        let q = crate::cmd::go::quant_range(&a)?;
         let [w, h] = params.camera.size;
         if w > MAX_SIDE || h > MAX_SIDE {
             return Err(Reply(
@@ -306,14 +307,10 @@ impl Session {
             size: [w as usize, h as usize],
         };
         match req.format.as_deref() {
-            None | Some("png") => {
-                let q = a.get_arr::<f64, 2>("q").ok().filter(|_| a.given("q"));
-                let q = q.map(|[lo, hi]| (lo, hi));
-                Ok((
-                    png_bytes(&img, q).map_err(|e| Reply(500, e.to_string()))?,
-                    "image/png",
-                ))
-            }
+            None | Some("png") => Ok((
+                png_bytes(&img, q).map_err(|e| Reply(500, e.to_string()))?,
+                "image/png",
+            )),
             Some("nrrd") => {
                 let mut n = rnd_std::nrrd::Nrrd::new(
                     vec![img.channels, img.size[0], img.size[1]],
