@@ -236,7 +236,9 @@ pub(crate) struct F64<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     pub unit_step: f64,
     /// ln(1 − α) of each LUT entry's clamped opacity.
     pub ln_transparency: &'r [f64],
+    /// Sizes of the samples held and the grid index of the first ([`Volume::region`]).
     sizes: [i64; 3],
+    org: [i64; 3],
 }
 
 impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> F64<'r, 'v, V, K, S> {
@@ -256,6 +258,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> F64<'r, 'v, V, K, S> {
             unit_step,
             ln_transparency,
             sizes: s.map(|x| x as i64),
+            org: vol.origin().map(|x| x as i64),
         }
     }
 }
@@ -292,7 +295,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         let p = at(&ray.start_i, &ray.step_i, k);
         let (mut n, mut f) = ([0i64; 3], [0.0f64; 3]);
         for a in 0..3 {
-            let Place::Inside(b, al) = place::<K, S>(p[a], self.sizes[a]) else {
+            let Place::Inside(b, al) = place::<K, S>(p[a], self.org[a], self.sizes[a]) else {
                 return None;
             };
             (n[a], f[a]) = (b, al);
@@ -314,7 +317,9 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         }
         for l in 0..N {
             let k = k0 + l as u32;
-            (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
+            let (n, f) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
+            out.n[l] = core::array::from_fn(|a| n[a] - self.org[a]);
+            out.f[l] = f;
             (out.inside[l], out.past[l]) = (true, false);
         }
     }
@@ -338,7 +343,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         let guess = ceil_estimate((-fcv - s) / d);
         let kend = first_true_near(1, kmax1, guess, |k| -(s + k as f64 * d) > fcv);
         let (lo, hi, exact) =
-            match inside_span_f64::<K, S>(self.sizes, &ray.start_i, &ray.step_i, kend) {
+            match inside_span_f64::<K, S>(self.org, self.sizes, &ray.start_i, &ray.step_i, kend) {
                 Some((lo, hi)) => (lo, hi, true),
                 None => (0, kend, false),
             };
@@ -372,6 +377,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         k: u32,
         out: &mut [[f32; 4]; N],
     ) -> bool {
+        // The runs place their samples in the grid's indices: whole volumes only.
+        if self.org != [0; 3] {
+            return false;
+        }
         self.convo
             .sums_run::<G, N>(&ray.start_i, &ray.step_i, k, out);
         true
@@ -477,7 +486,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     #[inline(always)]
     fn place(&self, ray: &RefRay, k: u32) -> Option<([i64; 3], [f32; 3])> {
         let pi = self.wtoi.point(self.cam.to_world(Self::view(ray, k), 1.0));
-        refarith::place3::<K, S>(pi, self.vol.sizes())
+        refarith::place3::<K, S>(pi, self.vol.origin(), self.vol.sizes())
     }
     /// Each lane does exactly what [`Arith::place`] does for its sample, side by side.
     #[inline(always)]
@@ -507,7 +516,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             }
         }
         let (m, t) = (&self.wtoi.m, &self.wtoi.t);
-        let sz = self.vol.sizes();
+        let (sz, org) = (self.vol.sizes(), self.vol.origin());
         // Axis by axis over whole lanes (so it vectorizes), then gathered per sample.
         let mut lo = [[0i64; N]; 3];
         let mut frac = [[0.0f32; N]; 3];
@@ -530,7 +539,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             crate::simd::floor_lanes(self.simd, &mut base);
             for l in 0..N {
                 let (x, base) = (x[l], base[l]);
-                let first = base + K::LO as f32;
+                let first = base + K::LO as f32 - org[a] as f32;
                 ins[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
                 // For an integer 0 ≤ c < 2^52, c + 2^52 holds c in its low mantissa
                 // bits: a conversion that vectorizes. Exact for inside lanes (0 ≤ first
@@ -717,6 +726,7 @@ pub(crate) fn first_true(mut lo: u32, mut hi: u32, pred: impl Fn(u32) -> bool) -
 /// samples) are exactly those whose kernel support is inside the volume, or None when
 /// the ray's geometry is unusual (non-finite or huge), for per-sample tests.
 fn inside_span_f64<K: Kernel<S>, const S: usize>(
+    org: [i64; 3],
     sizes: [i64; 3],
     start_i: &[f64; 3],
     step_i: &[f64; 3],
@@ -732,7 +742,7 @@ fn inside_span_f64<K: Kernel<S>, const S: usize>(
         // -1 below the inside range on this axis, 0 in it, +1 above; monotone in k
         // because x(k) = s + k d is (rounding is monotone) and so is the floor.
         let class = |k: u32| -> i32 {
-            match place::<K, S>(s + k as f64 * d, sizes[a]) {
+            match place::<K, S>(s + k as f64 * d, org[a], sizes[a]) {
                 Place::Below => -1,
                 Place::Inside(..) => 0,
                 Place::Above => 1,
@@ -742,8 +752,8 @@ fn inside_span_f64<K: Kernel<S>, const S: usize>(
         // reaches 0 at x = tlo and passes size − S at x = thi; the samples nearest them
         // are the estimates the searches start from.
         let off = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
-        let tlo = -(K::LO as f64) - off;
-        let thi = sizes[a] as f64 - S as f64 - K::LO as f64 + 1.0 - off;
+        let tlo = (org[a] - K::LO as i64) as f64 - off;
+        let thi = (org[a] + sizes[a]) as f64 - S as f64 - K::LO as f64 + 1.0 - off;
         let near = |t: f64| ceil_estimate((t - s) / d);
         let (a0, a1) = if d > 0.0 {
             (

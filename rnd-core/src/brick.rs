@@ -7,10 +7,26 @@
 //! the cut placed in proportion to those counts; each box is cut the same way until every
 //! box has one part. The bricks tile the volume exactly, in the order of a depth-first
 //! walk (the lower side of every cut first).
+//!
+//! **Which brick casts which sample.** Each ray is a straight line `c(k) = s + k d` in
+//! the grid's index space (computed in f64 from the camera alone, the same on every
+//! process), and sample k belongs to the brick whose box `lo <= c < hi` holds c(k) on
+//! every axis (the bricks on the grid's faces extended to infinity, so samples outside
+//! the grid belong somewhere too). Since c is monotone in k on each axis, a brick owns
+//! one stretch `[first, end)` of every ray ([`Own::window`]), and the stretches of all
+//! bricks partition the ray. The positions an arithmetic convolves at lie within half a
+//! voxel of c(k) (checked per ray), so a brick grown by [`ghosts`] holds every sample
+//! its samples' kernel supports reach: a brick's stretch convolved from a
+//! [`crate::volume::Volume::region`] gives the bits of the whole volume's render for
+//! those samples, and [`Partial`]s of the stretches composited in ray order give the
+//! pixel (`max`, `min`: the same bits; sums and `over`: the same up to the association
+//! of the float additions).
 
 use alloc::vec::Vec;
 
+use crate::blend::{Accum, Blend};
 use crate::error::{Error, ErrorKind, Result};
+use crate::kernel::KernelName;
 
 /// A box of voxel indices: `lo[a] <= i < hi[a]` on each axis `a`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -54,6 +70,227 @@ impl Brick {
             lo: self.lo.map(|l| l.saturating_sub(below)),
             hi: core::array::from_fn(|a| self.hi[a].saturating_add(above).min(sizes[a])),
         }
+    }
+}
+
+/// The ghost layers a brick needs below and above its box for `kernel` (see the
+/// [module](self)): with sample positions within half a voxel of the exact line, the
+/// supports of a brick's samples reach `1 − LO` voxels below and `LO + S` above, for a
+/// kernel of support S whose lowest offset is LO.
+pub fn ghosts(kernel: KernelName) -> (usize, usize) {
+    let (s, lo) = (kernel.support() as i64, i64::from(kernel.lo()));
+    ((1 - lo).max(0) as usize, (lo + s).max(0) as usize)
+}
+
+/// The part of every ray one brick casts: samples whose exact index-space position c has
+/// `lo <= c < hi` on every axis (±∞ on the grid's faces).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Own {
+    /// Lower bounds per axis (inclusive).
+    pub lo: [f64; 3],
+    /// Upper bounds per axis (exclusive).
+    pub hi: [f64; 3],
+}
+
+impl Own {
+    /// What `brick` of a grid of `grid` samples owns.
+    pub fn of(brick: &Brick, grid: [usize; 3]) -> Own {
+        Own {
+            lo: core::array::from_fn(|a| match brick.lo[a] {
+                0 => f64::NEG_INFINITY,
+                l => l as f64,
+            }),
+            hi: core::array::from_fn(|a| {
+                if brick.hi[a] >= grid[a] {
+                    f64::INFINITY
+                } else {
+                    brick.hi[a] as f64
+                }
+            }),
+        }
+    }
+
+    /// The stretch `[first, end)` of samples `0 .. kend` of the line `s + k d` (per axis;
+    /// computed as `s + (k as f64) * d`, monotone in k) that this brick owns; empty
+    /// (first == end) when it owns none.
+    pub fn window(&self, s: [f64; 3], d: [f64; 3], kend: u32) -> (u32, u32) {
+        let (mut first, mut end) = (0u32, kend);
+        for a in 0..3 {
+            let (s, d, lo, hi) = (s[a], d[a], self.lo[a], self.hi[a]);
+            let c = |k: u32| s + k as f64 * d;
+            let guess = |t: f64| crate::math::ceil((t - s) / d);
+            let (f, e) = if d > 0.0 {
+                (
+                    crate::arith::first_true_near(0, kend, guess(lo), |k| c(k) >= lo),
+                    crate::arith::first_true_near(0, kend, guess(hi), |k| c(k) >= hi),
+                )
+            } else if d < 0.0 {
+                (
+                    crate::arith::first_true_near(0, kend, guess(hi), |k| c(k) < hi),
+                    crate::arith::first_true_near(0, kend, guess(lo), |k| c(k) < lo),
+                )
+            } else if lo <= s && s < hi {
+                (0, kend)
+            } else {
+                (0, 0)
+            };
+            first = first.max(f);
+            end = end.min(e);
+        }
+        (first, end.max(first))
+    }
+}
+
+/// One pixel's blend over one brick's stretch `[first, end)` of its ray: what sort-last
+/// compositing combines ([`Partial::composite`]) and finishes into the pixel
+/// ([`Partial::finish`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Partial {
+    /// The running blend (for `over`: premultiplied colour and opacity).
+    pub acc: Accum,
+    /// The transparency under `over` in the reference arithmetic (which composites on
+    /// it); 1 otherwise.
+    pub transp: f32,
+    /// The stretch of samples blended (first == end: none).
+    pub first: u32,
+    /// One past the last sample of the stretch.
+    pub end: u32,
+}
+
+impl Partial {
+    /// Nothing blended.
+    pub fn empty(blend: Blend, len: usize) -> Partial {
+        Partial {
+            acc: Accum::new(blend, len),
+            transp: 1.0,
+            first: 0,
+            end: 0,
+        }
+    }
+
+    /// Whether no stretch is covered.
+    pub fn is_empty(&self) -> bool {
+        self.first >= self.end
+    }
+
+    /// The partial of the union of two adjacent stretches of one ray, whichever comes
+    /// first along the ray in front (`over` composites the nearer over the farther; `by_
+    /// transparency` as the reference arithmetic does, on the transparency). An empty
+    /// partial changes nothing.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Render`] when the blends or channel counts differ, the stretches
+    /// overlap, or the blend is `median` (which needs every sample).
+    pub fn composite(&self, other: &Partial, by_transparency: bool) -> Result<Partial> {
+        if (self.acc.blend, self.acc.len) != (other.acc.blend, other.acc.len) {
+            return Err(Error::new(
+                ErrorKind::Render,
+                "partials of different blends or channel counts",
+            ));
+        }
+        if other.is_empty() {
+            return Ok(*self);
+        }
+        if self.is_empty() {
+            return Ok(*other);
+        }
+        let (f, b) = if self.end <= other.first {
+            (self, other)
+        } else if other.end <= self.first {
+            (other, self)
+        } else {
+            return Err(Error::new(
+                ErrorKind::Render,
+                alloc::format!(
+                    "partials of overlapping stretches {}..{} and {}..{}",
+                    self.first,
+                    self.end,
+                    other.first,
+                    other.end
+                ),
+            ));
+        };
+        let mut out = *f;
+        out.end = b.end;
+        let (fa, ba) = (&f.acc, &b.acc);
+        let len = fa.len.min(crate::blend::MAX_CHANNELS);
+        let acc = &mut out.acc;
+        acc.count = fa.count.saturating_add(ba.count);
+        match fa.blend {
+            Blend::Median => {
+                return Err(Error::new(
+                    ErrorKind::Render,
+                    "the median cannot be composited from partials",
+                ))
+            }
+            Blend::Max | Blend::Min if fa.count == 0 => acc.acc = ba.acc,
+            Blend::Max | Blend::Min if ba.count == 0 => {}
+            Blend::Max => {
+                for c in 0..len {
+                    acc.acc[c] = fa.acc[c].max(ba.acc[c]);
+                }
+            }
+            Blend::Min => {
+                for c in 0..len {
+                    acc.acc[c] = fa.acc[c].min(ba.acc[c]);
+                }
+            }
+            Blend::Sum | Blend::Mean => {
+                for c in 0..len {
+                    acc.acc[c] = fa.acc[c] + ba.acc[c];
+                }
+            }
+            Blend::L2 | Blend::Variance | Blend::Sd => {
+                for c in 0..len {
+                    acc.sums[c] = [fa.sums[c][0] + ba.sums[c][0], fa.sums[c][1] + ba.sums[c][1]];
+                }
+            }
+            Blend::Over if by_transparency => {
+                // A front stretch that ended its ray (opacity set to 1) hides the rest.
+                let t = if fa.acc[3] >= 1.0 { 0.0 } else { f.transp };
+                for c in 0..3 {
+                    acc.acc[c] = fa.acc[c] + t * ba.acc[c];
+                }
+                out.transp = t * b.transp;
+                acc.acc[3] = 1.0 - out.transp;
+            }
+            Blend::Over => {
+                let t = 1.0 - fa.acc[3];
+                for c in 0..4 {
+                    acc.acc[c] = fa.acc[c] + t * ba.acc[c];
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The partials of one pixel from every brick (any order) composited in ray order:
+    /// the pixel's [`Partial`] for the whole ray.
+    ///
+    /// # Errors
+    /// As [`Partial::composite`]; also when the non-empty stretches leave a gap.
+    pub fn composite_all(parts: &mut [Partial], by_transparency: bool) -> Result<Partial> {
+        let Some(first) = parts.first().copied() else {
+            return Err(Error::new(ErrorKind::Render, "no partials to composite"));
+        };
+        parts.sort_unstable_by_key(|p| (p.is_empty(), p.first));
+        let mut acc = Partial::empty(first.acc.blend, first.acc.len);
+        for p in parts.iter().filter(|p| !p.is_empty()) {
+            if !acc.is_empty() && acc.end != p.first {
+                return Err(Error::new(
+                    ErrorKind::Render,
+                    alloc::format!("partials leave samples {}..{} out", acc.end, p.first),
+                ));
+            }
+            acc = acc.composite(p, by_transparency)?;
+        }
+        Ok(acc)
+    }
+
+    /// The pixel: the blend's result into `out[..len]`, `outside` when nothing was
+    /// blended (see [`Accum::finish`]).
+    pub fn finish(&self, outside: f32, out: &mut [f32]) {
+        self.acc.finish(outside, None, out);
     }
 }
 

@@ -157,7 +157,10 @@ pub(crate) fn second_order_at<V: Voxel, K: Kernel<S>, const S: usize>(
 #[derive(Debug, Clone)]
 pub struct Convo<'v, V: Voxel, K: Kernel<S>, const S: usize> {
     vol: Volume<'v, V>,
+    /// Sizes of the samples held and the grid index of the first (see
+    /// [`Volume::region`]).
     sizes: [i64; 3],
+    org: [i64; 3],
     /// Transpose of WtoI's 3×3 (maps index-space gradients to world space).
     gmat: [[f32; 3]; 3],
     /// The vector level of batches (the same bits at every level, see [`crate::simd`]).
@@ -189,6 +192,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         Convo {
             vol,
             sizes: [s[0] as i64, s[1] as i64, s[2] as i64],
+            org: vol.origin().map(|o| o as i64),
             gmat,
             simd,
             _k: PhantomData,
@@ -218,8 +222,9 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         self.eval_index(pos_i, grad)
     }
 
-    /// The first support index on each axis for index-space point `pos_i`, when the
-    /// whole support is inside the volume (the inside rule), else None.
+    /// The first support index on each axis for index-space point `pos_i` (counted from
+    /// [`Volume::origin`]), when the whole support is inside the samples held (the
+    /// inside rule), else None.
     #[inline(always)]
     pub fn support_start(&self, pos_i: [f64; 3]) -> Option<[i64; 3]> {
         self.place3(pos_i).map(|(n, _)| n)
@@ -232,7 +237,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         let mut n = [0i64; 3];
         let mut alpha = [0.0f64; 3];
         for a in 0..3 {
-            let Place::Inside(b, al) = place::<K, S>(pos_i[a], self.sizes[a]) else {
+            let Place::Inside(b, al) = place::<K, S>(pos_i[a], self.org[a], self.sizes[a]) else {
                 return None;
             };
             n[a] = b;
@@ -448,9 +453,10 @@ pub(crate) enum Place {
     Above,
 }
 
-/// The inside rule on one axis for kernel `K`.
+/// The inside rule on one axis for kernel `K`, for the `size` samples held from grid
+/// index `org` on (the first support index returned counts from `org`).
 #[inline(always)]
-pub(crate) fn place<K: Kernel<S>, const S: usize>(x: f64, size: i64) -> Place {
+pub(crate) fn place<K: Kernel<S>, const S: usize>(x: f64, org: i64, size: i64) -> Place {
     if !(x > -INDEX_LIMIT) {
         return Place::Below;
     }
@@ -458,7 +464,7 @@ pub(crate) fn place<K: Kernel<S>, const S: usize>(x: f64, size: i64) -> Place {
         return Place::Above;
     }
     let (b, alpha) = K::base(x);
-    let first = b + K::LO as i64;
+    let first = b + K::LO as i64 - org;
     if first < 0 {
         Place::Below
     } else if first + S as i64 > size {

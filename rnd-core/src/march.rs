@@ -13,6 +13,7 @@ use core::cell::Cell;
 
 use crate::arith::{gmag, Arith, Line, Memo, Placed};
 use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
+use crate::brick::{Own, Partial};
 use crate::classify::Quantity;
 use crate::convo::{ConvoSample, SecondOrder};
 use crate::light::blinn_phong;
@@ -56,8 +57,11 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     pub spec: &'s RenderSpec<'a>,
     pub a: A,
     pub skip: Option<&'s SkipGrid>,
-    /// Volume sizes, and the kernel's support and first support offset.
+    /// Sizes of the samples held and the grid index of the first (a
+    /// [`crate::volume::Volume::region`]), and the kernel's support and first support
+    /// offset.
     pub sizes: [usize; 3],
+    pub org: [i64; 3],
     pub support: usize,
     pub lo: i32,
     /// Under `max` with bounds: the sample number where the last ray cast found its
@@ -69,6 +73,17 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     pub idle: Cell<u32>,
     /// Under `median`: the lists of samples, reused from ray to ray.
     pub kept: Cell<Kept>,
+    /// For a brick of a sort-last render: the stretch of each ray it casts; set when a
+    /// ray's positions could lie too far from the exact line for its ghost layers.
+    pub own: Option<Own>,
+    pub imprecise: Cell<bool>,
+}
+
+/// Where a ray's result goes: the pixel, or (for a brick) the partial blend.
+#[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
+pub(crate) enum Out<'o> {
+    Pixel(&'o mut [f32]),
+    Part(&'o mut Partial),
 }
 
 /// Rays without a skip after which bounds are looked at only on every 16th ray.
@@ -89,6 +104,8 @@ struct State<'t> {
     best: Option<u32>,
     /// Under `median`: the ray's samples.
     kept: Option<Kept>,
+    /// For a brick: the stretch of the ray it casts.
+    win: (u32, u32),
 }
 
 /// Samples placed for the convolution, in ray order (how many are waiting is a local
@@ -100,8 +117,9 @@ struct Batch<F, const N: usize> {
 }
 
 impl<'s, 'a, A: Arith> March<'s, 'a, A> {
-    /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels).
-    pub fn cast(&self, hi: u32, vi: u32, out: &mut [f32], mode: Loop, trace: Trace<'_>) {
+    /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels, or the
+    /// partial blend of the brick's stretch).
+    pub fn cast(&self, hi: u32, vi: u32, out: Out<'_>, mode: Loop, trace: Trace<'_>) {
         let wide = A::BATCH > 8;
         match (mode, self.spec.need_grad, wide) {
             (Loop::OneSample, true, _) => self.run::<true, 1>(hi, vi, out, trace),
@@ -123,9 +141,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         &self,
         hi: u32,
         vi: u32,
-        out: &mut [f32],
+        mut out: Out<'_>,
         trace: Trace<'_>,
     ) {
+        let out = &mut out;
         let sp = self.spec;
         let p = &sp.params;
         let ray = self.a.ray(hi, vi);
@@ -142,10 +161,19 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 k.clear();
                 k
             }),
+            win: (0, 0),
         };
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
         let kend = if sp.once { 1 } else { sp.kmax + 1 };
+        // A brick casts its stretch of the ray.
+        let (w0, w1) = match &self.own {
+            Some(own) => {
+                st.win = self.window(own, &ray, kend);
+                st.win
+            }
+            None => (0, kend),
+        };
         // With an exact span every sample of [k0, k1) is inside and before the far plane.
         let (k0, k1, exact) = if N > 1 && !everywhere {
             match self.a.span(&ray, kend) {
@@ -155,6 +183,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         } else {
             (0, kend, false)
         };
+        let (k0, k1) = (k0.max(w0), k1.min(w1));
+        if k0 >= k1 {
+            return self.finish(&mut st, out);
+        }
         let tracing = st.trace.is_some();
         let (skip, below) = match self.skip {
             Some(g) if g.kind() == SkipKind::Opacity => (Some(g), None),
@@ -319,13 +351,40 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         self.finish(&mut st, out);
     }
 
-    /// The ray's pixel into `out`; the median's lists go back for the next ray.
+    /// The ray's pixel (or partial) into `out`; the median's lists go back for the next
+    /// ray.
     #[inline(always)]
-    fn finish(&self, st: &mut State<'_>, out: &mut [f32]) {
-        st.acc
-            .finish(self.spec.params.outside, st.kept.as_mut(), out);
+    fn finish(&self, st: &mut State<'_>, out: &mut Out<'_>) {
+        match out {
+            Out::Pixel(px) => st
+                .acc
+                .finish(self.spec.params.outside, st.kept.as_mut(), px),
+            Out::Part(part) => {
+                **part = Partial {
+                    acc: st.acc,
+                    transp: st.transp,
+                    first: st.win.0,
+                    end: st.win.1,
+                }
+            }
+        }
         if let Some(kept) = st.kept.take() {
             self.kept.set(kept);
+        }
+    }
+
+    /// The stretch of samples `0 .. kend` of `ray` that `own` casts (see
+    /// [`crate::brick`]): from the strategy's exact index-space line; a ray without one,
+    /// or whose positions may lie half a voxel or more from it, marks the render
+    /// imprecise (its ghost layers might not hold what the samples reach).
+    #[inline(never)]
+    fn window(&self, own: &Own, ray: &A::Ray, kend: u32) -> (u32, u32) {
+        match self.a.line(ray, kend) {
+            Some(l) if l.err.iter().all(|&e| e < 0.5) => own.window(l.s, l.d, kend),
+            _ => {
+                self.imprecise.set(true);
+                (0, 0)
+            }
         }
     }
 
@@ -700,8 +759,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             let (s, d) = (line.s[a], line.d[a]);
             // Rounding of this f64 arithmetic, far inside the margin.
             let e = line.err[a] + 1e-12 * (s.abs() + k1 as f64 * d.abs() + 1.0);
-            let first = bx[a][0].max(0) as f64;
-            let last = bx[a][1].min(self.sizes[a] as i64 - self.support as i64) as f64;
+            // (Boxes count from the samples held; the line is in the grid's indices.)
+            let first = (bx[a][0].max(0) + self.org[a]) as f64;
+            let last =
+                (bx[a][1].min(self.sizes[a] as i64 - self.support as i64) + self.org[a]) as f64;
             // Support start floor(x + o) + LO in [first, last] ⇔ x in
             // [first − LO − o, last + 1 − LO − o).
             lim[a] = [first - lo_off + e, last + 1.0 - lo_off - e];

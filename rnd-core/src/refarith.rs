@@ -275,14 +275,15 @@ pub struct RefSample {
     pub grad_i: V3,
 }
 
-/// First support index and fractional offset of index coordinate `x` on an axis of
-/// `size` samples, when the whole support is inside (NaN is outside).
+/// First support index (counted from grid index `org`) and fractional offset of index
+/// coordinate `x` on an axis of which `size` samples from `org` on are held, when the
+/// whole support is inside them (NaN is outside).
 #[inline(always)]
-fn place<K: Kernel<S>, const S: usize>(x: f32, size: usize) -> Option<(i64, f32)> {
+fn place<K: Kernel<S>, const S: usize>(x: f32, org: usize, size: usize) -> Option<(i64, f32)> {
     let y = if S.is_multiple_of(2) { x } else { x + 0.5 };
     let base = math::floorf(y);
-    let lo = base + K::LO as f32;
-    // Both bounds are small integers, exact in f32 for any volume this crate accepts.
+    let lo = base + K::LO as f32 - org as f32;
+    // The bounds are small integers, exact in f32 for any volume this crate accepts.
     if lo >= 0.0 && lo + (S as f32 - 1.0) <= size as f32 - 1.0 {
         Some((lo as i64, x - base))
     } else {
@@ -290,13 +291,18 @@ fn place<K: Kernel<S>, const S: usize>(x: f32, size: usize) -> Option<(i64, f32)
     }
 }
 
-/// First support index and fractions per axis of index position `p` when the whole
-/// support is inside a volume of `sizes` (the inside rule in f32).
+/// First support index (counted from `org`) and fractions per axis of index position
+/// `p` when the whole support is inside the `sizes` samples held from grid index `org`
+/// on (the inside rule in f32; `org` is 0 for a whole volume).
 #[inline(always)]
-pub fn place3<K: Kernel<S>, const S: usize>(p: V3, sizes: [usize; 3]) -> Option<([i64; 3], V3)> {
+pub fn place3<K: Kernel<S>, const S: usize>(
+    p: V3,
+    org: [usize; 3],
+    sizes: [usize; 3],
+) -> Option<([i64; 3], V3)> {
     let (mut n, mut f) = ([0i64; 3], [0.0f32; 3]);
     for a in 0..3 {
-        (n[a], f[a]) = place::<K, S>(p[a], sizes[a])?;
+        (n[a], f[a]) = place::<K, S>(p[a], org[a], sizes[a])?;
     }
     Some((n, f))
 }
@@ -309,12 +315,12 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
     p: V3,
     grad: bool,
 ) -> Option<RefSample> {
-    let sz = vol.sizes();
+    let (sz, org) = (vol.sizes(), vol.origin());
     let mut n = [0i64; 3];
     let mut w = [[0.0f32; S]; 3];
     let mut dw = [[0.0f32; S]; 3];
     for a in 0..3 {
-        let (lo, al) = place::<K, S>(p[a], sz[a])?;
+        let (lo, al) = place::<K, S>(p[a], org[a], sz[a])?;
         n[a] = lo;
         for i in 0..S {
             let x = al - (K::LO + i as i32) as f32;
@@ -379,14 +385,15 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
         return Some((0, kmax));
     };
     let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
-    let sz = vol.sizes();
+    let (sz, org) = (vol.sizes(), vol.origin());
     let (mut lo, mut hi) = (0.0f64, kmax_f);
     for a in 0..3 {
         let (x0, x1, err) = (line.s[a] + half, line.d[a], line.err[a]);
-        // Inside in f32: floor(y) + LO >= 0 and floor(y) + LO + S - 1 <= size - 1, that
-        // is y in [-LO, size - LO - S + 1).
-        let ylo = -(K::LO as f64) - err;
-        let yhi = (sz[a] as f64 - K::LO as f64 - S as f64 + 1.0) + err;
+        // Inside in f32: floor(y) + LO - org >= 0 and floor(y) + LO - org + S - 1 <=
+        // size - 1, that is y in [org - LO, org + size - LO - S + 1).
+        let o = org[a] as f64;
+        let ylo = o - (K::LO as f64) - err;
+        let yhi = (o + sz[a] as f64 - K::LO as f64 - S as f64 + 1.0) + err;
         if x1 == 0.0 {
             if x0 < ylo || x0 > yhi {
                 return None;
@@ -516,10 +523,10 @@ impl<const S: usize> Lanes<S> {
     /// false (nothing added) otherwise. The batch must not be full.
     #[inline(always)]
     pub fn push<V: Voxel, K: Kernel<S>>(&mut self, vol: &Volume<'_, V>, p: V3) -> bool {
-        let sz = vol.sizes();
+        let (sz, org) = (vol.sizes(), vol.origin());
         let (mut n, mut al) = ([0i64; 3], [0.0f32; 3]);
         for a in 0..3 {
-            let Some((lo, f)) = place::<K, S>(p[a], sz[a]) else {
+            let Some((lo, f)) = place::<K, S>(p[a], org[a], sz[a]) else {
                 return false;
             };
             (n[a], al[a]) = (lo, f);
@@ -850,7 +857,7 @@ mod lane_tests {
                         let kf = k as f32;
                         let pv = core::array::from_fn(|a| ray.start[a] + kf * ray.step[a]);
                         let pi = wtoi.point(cam.to_world(pv, 1.0));
-                        if place3::<K, S>(pi, vol.sizes()).is_some() {
+                        if place3::<K, S>(pi, [0; 3], vol.sizes()).is_some() {
                             inside.push(k);
                         }
                     }

@@ -7,11 +7,12 @@ use alloc::vec::Vec;
 use crate::affine::Affine4;
 use crate::arith::{correct_alpha, ln_transparency, Reference, F64};
 use crate::blend::Blend;
+use crate::brick::Own;
 use crate::camera::{Camera, CameraSpec};
 use crate::error::{Error, ErrorKind, Param, Result};
 use crate::kernel::{Kernel, KernelName, KernelTask};
 use crate::light::{Light, Phong, WorldLights};
-use crate::march::March;
+use crate::march::{March, Out};
 use crate::probe::Probe;
 use crate::refarith::{self, RefCamera};
 use crate::simd::Simd;
@@ -520,14 +521,16 @@ impl<'a> RenderSpec<'a> {
         )
     }
 
-    /// Runs `f` with the loop over `vol` in the spec's arithmetic.
+    /// Runs `f` with the loop over `vol` in the spec's arithmetic (casting the stretches
+    /// `own` gives, for a brick).
     fn with_march<V: Voxel, K: Kernel<S>, const S: usize, R>(
         &self,
         vol: Volume<'_, V>,
         skip: Option<&SkipGrid>,
+        own: Option<Own>,
         f: impl FnOnce(&dyn Cast) -> R,
     ) -> R {
-        let sizes = vol.sizes();
+        let (sizes, org) = (vol.sizes(), vol.origin().map(|o| o as i64));
         // Only a grid made for this render and volume shape is used.
         let skip = skip.filter(|g| {
             self.skip_kind()
@@ -541,7 +544,7 @@ impl<'a> RenderSpec<'a> {
                 self.plane_sep() as f32,
                 self.params.unit_step as f32,
             );
-            f(&march::<_, K, S>(self, a, skip, sizes))
+            f(&march::<_, K, S>(self, a, skip, sizes, org, own))
         } else {
             let a = F64::<V, K, S>::new(
                 vol,
@@ -551,7 +554,7 @@ impl<'a> RenderSpec<'a> {
                 self.params.unit_step,
                 &self.ln_transparency,
             );
-            f(&march::<_, K, S>(self, a, skip, sizes))
+            f(&march::<_, K, S>(self, a, skip, sizes, org, own))
         }
     }
 
@@ -593,7 +596,9 @@ impl<'a> RenderSpec<'a> {
                     mode,
                     trace,
                 } = self;
-                spec.with_march::<V, K, S, ()>(vol, None, |m| m.cast(hi, vi, out, mode, trace));
+                spec.with_march::<V, K, S, ()>(vol, None, None, |m| {
+                    m.cast(hi, vi, Out::Pixel(out), mode, trace)
+                });
             }
         }
         let task = One {
@@ -652,6 +657,115 @@ impl<'a> RenderSpec<'a> {
         dispatch(vol, kernel, task);
     }
 
+    /// Whether this render can be split into bricks (sort-last, [`crate::brick`]): not
+    /// under `median` (which needs all of a ray's samples at once) nor with the time
+    /// channel (a time per pixel, not per stretch).
+    ///
+    /// # Errors
+    /// [`ErrorKind::Render`] naming what cannot be split.
+    pub fn check_bricked(&self) -> Result<()> {
+        if self.params.blend.keeps_samples() {
+            return Err(Error::about(
+                ErrorKind::Render,
+                Param::Blend,
+                "the median cannot be rendered in bricks (it needs every sample of a ray)",
+            ));
+        }
+        if self.params.time {
+            return Err(Error::new(
+                ErrorKind::Render,
+                "the time channel cannot be rendered in bricks (its times are per pixel)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Renders, for each pixel of image rows `rows`, the [`Partial`] of the stretch of
+    /// its ray that `own` gives (one brick of a sort-last render, see [`crate::brick`]),
+    /// from `vol`, the brick's [`Volume::region`] with the ghost layers of
+    /// [`crate::brick::ghosts`], into `out` (one per pixel, rows consecutive). `skip`
+    /// as for [`RenderSpec::render_rows`] (a grid made from `vol`).
+    ///
+    /// Not generic, as [`RenderSpec::cast`].
+    ///
+    /// # Errors
+    /// As [`RenderSpec::check_bricked`]; [`ErrorKind::Volume`] when a ray's computed
+    /// positions could lie half a voxel or more from its exact line (coordinates too
+    /// large for the ghost layers), or `out` has the wrong length.
+    #[cfg(not(test))] // as for `cast`
+    pub fn render_part_rows(
+        &self,
+        vol: AnyVolume<'_>,
+        kernel: KernelName,
+        skip: Option<&SkipGrid>,
+        own: &Own,
+        rows: core::ops::Range<u32>,
+        out: &mut [crate::brick::Partial],
+    ) -> Result<()> {
+        struct Rows<'r, 's, 'a> {
+            spec: &'s RenderSpec<'a>,
+            skip: Option<&'s SkipGrid>,
+            own: Own,
+            rows: core::ops::Range<u32>,
+            out: &'r mut [crate::brick::Partial],
+        }
+        impl ConvoTask for Rows<'_, '_, '_> {
+            type Output = bool;
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> bool {
+                let Rows {
+                    spec,
+                    skip,
+                    own,
+                    rows,
+                    out,
+                } = self;
+                let w = spec.size()[0] as usize;
+                let mode = if spec.params.fast_loop {
+                    Loop::Batched
+                } else {
+                    Loop::OneSample
+                };
+                spec.with_march::<V, K, S, bool>(vol, skip, Some(own), |m| {
+                    for (r, vi) in rows.enumerate() {
+                        for hi in 0..w {
+                            let part = &mut out[r * w + hi];
+                            m.cast(hi as u32, vi, Out::Part(part), mode, None);
+                        }
+                    }
+                    !m.imprecise()
+                })
+            }
+        }
+        self.check_bricked()?;
+        if out.len() != rows.len() * self.size()[0] as usize {
+            return Err(Error::new(
+                ErrorKind::Volume,
+                alloc::format!(
+                    "{} partials for {} rows of {} pixels",
+                    out.len(),
+                    rows.len(),
+                    self.size()[0]
+                ),
+            ));
+        }
+        let task = Rows {
+            spec: self,
+            skip,
+            own: *own,
+            rows,
+            out,
+        };
+        if dispatch(vol, kernel, task) {
+            Ok(())
+        } else {
+            Err(Error::new(
+                ErrorKind::Volume,
+                "index coordinates too large to split the volume into bricks exactly \
+                 (a ray's positions may lie half a voxel from its line)",
+            ))
+        }
+    }
+
     /// [`RenderSpec::render_rows`] with the voxel type and kernel known.
     pub(crate) fn rows_in<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,
@@ -670,12 +784,12 @@ impl<'a> RenderSpec<'a> {
             Loop::OneSample
         };
         debug_assert_eq!(out.len(), rows.len() * w * ch);
-        self.with_march::<V, K, S, ()>(vol, skip, |m| {
+        self.with_march::<V, K, S, ()>(vol, skip, None, |m| {
             for (r, vi) in rows.enumerate() {
                 for hi in 0..w {
                     let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
                     let t0 = clock.map(|c| c());
-                    m.cast(hi as u32, vi, &mut px[..plen], mode, None);
+                    m.cast(hi as u32, vi, Out::Pixel(&mut px[..plen]), mode, None);
                     if let (Some(c), Some(t0)) = (clock, t0) {
                         px[plen] = (c() - t0) as f32;
                     }
@@ -685,18 +799,24 @@ impl<'a> RenderSpec<'a> {
     }
 }
 
-/// The loop of `spec` over a volume of `sizes` in arithmetic `a` with kernel `K`.
+/// The loop of `spec` over `sizes` samples from grid index `org` in arithmetic `a` with
+/// kernel `K`.
 fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
     spec: &'s RenderSpec<'a>,
     a: A,
     skip: Option<&'s SkipGrid>,
     sizes: [usize; 3],
+    org: [i64; 3],
+    own: Option<Own>,
 ) -> March<'s, 'a, A> {
     March {
         spec,
         a,
         skip,
         sizes,
+        org,
+        own,
+        imprecise: core::cell::Cell::new(false),
         support: S,
         lo: K::LO,
         hint: core::cell::Cell::new(None),
@@ -707,12 +827,18 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
 
 /// One ray cast by a [`March`] in either arithmetic.
 trait Cast {
-    fn cast(&self, hi: u32, vi: u32, out: &mut [f32], mode: Loop, trace: Trace<'_>);
+    fn cast(&self, hi: u32, vi: u32, out: Out<'_>, mode: Loop, trace: Trace<'_>);
+    /// Whether a brick's ray could not be cast exactly (see [`Own`]).
+    #[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
+    fn imprecise(&self) -> bool;
 }
 
 impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
-    fn cast(&self, hi: u32, vi: u32, out: &mut [f32], mode: Loop, trace: Trace<'_>) {
+    fn cast(&self, hi: u32, vi: u32, out: Out<'_>, mode: Loop, trace: Trace<'_>) {
         March::cast(self, hi, vi, out, mode, trace)
+    }
+    fn imprecise(&self) -> bool {
+        self.imprecise.get()
     }
 }
 
@@ -743,11 +869,19 @@ pub struct Probed {
 }
 
 impl AnyVolume<'_> {
-    /// Samples per axis.
+    /// Samples held per axis (see [`Volume::sizes`]).
     pub fn sizes(&self) -> [usize; 3] {
         match self {
             AnyVolume::F32(v) => v.sizes(),
             AnyVolume::I16(v) => v.sizes(),
+        }
+    }
+
+    /// Samples of the whole grid per axis (see [`Volume::grid`]).
+    pub fn grid(&self) -> [usize; 3] {
+        match self {
+            AnyVolume::F32(v) => v.grid(),
+            AnyVolume::I16(v) => v.grid(),
         }
     }
 
@@ -762,7 +896,7 @@ impl AnyVolume<'_> {
     /// The world positions of the eight corner samples (see
     /// [`crate::camera::CameraSpec::framing`]).
     pub fn world_corners(&self) -> [[f64; 3]; 8] {
-        crate::volume::corners(self.itow(), self.sizes())
+        crate::volume::corners(self.itow(), self.grid())
     }
 
     /// Reconstructs the value and world-space gradient at world point `world` with
@@ -862,7 +996,7 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
             out
         }
     }
-    spec.check_volume(vol.sizes())?;
+    spec.check_volume(vol.grid())?;
     let [w, h] = spec.size();
     let len = spec.image_len();
     let mut out = Vec::new();

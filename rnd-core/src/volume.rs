@@ -27,6 +27,11 @@ use crate::voxel::Voxel;
 pub struct Volume<'a, V: Voxel> {
     data: &'a [V],
     sizes: [usize; 3],
+    /// Index (in the grid) of the first sample held, and the grid's sizes: a volume made
+    /// by [`Volume::region`] holds a box of a larger grid (origin 0 and grid = sizes
+    /// otherwise).
+    origin: [usize; 3],
+    grid: [usize; 3],
     itow: Affine4,
     wtoi: Affine4,
 }
@@ -75,9 +80,55 @@ impl<'a, V: Voxel> Volume<'a, V> {
         Ok(Volume {
             data,
             sizes,
+            origin: [0; 3],
+            grid: sizes,
             itow,
             wtoi,
         })
+    }
+
+    /// Wraps `data`, the samples of the box `region` of a grid of `grid` samples whose
+    /// index-to-world matrix is `itow` (index positions are the grid's): the piece of a
+    /// volume one process holds in a bricked render. Its samples are those of the box
+    /// (fast axis first); everything positional (ItoW, [`Volume::world_corners`]) is
+    /// the grid's, and a point is convolved only where its whole kernel support lies
+    /// in the box.
+    ///
+    /// ```
+    /// use rnd_core::affine::Affine4;
+    /// use rnd_core::brick::Brick;
+    /// use rnd_core::volume::Volume;
+    ///
+    /// let part = [5.0f32, 6.0, 7.0, 8.0]; // samples (1..3, 2..4, 0..1) of a 4 x 4 x 3 grid
+    /// let b = Brick { lo: [1, 2, 0], hi: [3, 4, 1] };
+    /// let vol = Volume::region(&part, [4, 4, 3], b, Affine4::IDENTITY).unwrap();
+    /// assert_eq!((vol.sizes(), vol.origin(), vol.grid()), ([2, 2, 1], [1, 2, 0], [4, 4, 3]));
+    /// assert_eq!(vol.at(1, 1, 0), 8.0);
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Volume::new`], and when the box is empty or leaves the grid.
+    pub fn region(
+        data: &'a [V],
+        grid: [usize; 3],
+        region: crate::brick::Brick,
+        itow: Affine4,
+    ) -> Result<Self> {
+        let sizes = region.sizes();
+        if (0..3).any(|a| region.hi[a] > grid[a] || region.lo[a] >= region.hi[a]) {
+            return Err(Error::new(
+                ErrorKind::Volume,
+                alloc::format!(
+                    "region {:?}..{:?} is empty or leaves the grid of sizes {grid:?}",
+                    region.lo,
+                    region.hi
+                ),
+            ));
+        }
+        let mut v = Volume::new(data, sizes, itow)?;
+        v.origin = region.lo;
+        v.grid = grid;
+        Ok(v)
     }
 
     /// The samples.
@@ -85,10 +136,22 @@ impl<'a, V: Voxel> Volume<'a, V> {
     pub fn data(&self) -> &'a [V] {
         self.data
     }
-    /// Sizes, fast axis first.
+    /// Sizes of the samples held, fast axis first (the grid's, but for a
+    /// [`Volume::region`]).
     #[inline(always)]
     pub fn sizes(&self) -> [usize; 3] {
         self.sizes
+    }
+    /// Grid index of the first sample held (0 but for a [`Volume::region`]).
+    #[inline(always)]
+    pub fn origin(&self) -> [usize; 3] {
+        self.origin
+    }
+    /// Sizes of the whole grid (those of the samples held, but for a
+    /// [`Volume::region`]).
+    #[inline(always)]
+    pub fn grid(&self) -> [usize; 3] {
+        self.grid
     }
     /// Index-to-world.
     #[inline(always)]
@@ -100,18 +163,19 @@ impl<'a, V: Voxel> Volume<'a, V> {
     pub fn wtoi(&self) -> &Affine4 {
         &self.wtoi
     }
-    /// Sample at integer index (i, j, k).
+    /// Sample at integer index (i, j, k) of the samples held (for a [`Volume::region`],
+    /// counted from its origin).
     ///
     /// # Panics
-    /// When (i, j, k) is outside the volume.
+    /// When (i, j, k) is outside the samples held.
     #[inline(always)]
     pub fn at(&self, i: usize, j: usize, k: usize) -> V {
         self.data[i + self.sizes[0] * (j + self.sizes[1] * k)]
     }
-    /// The world positions of the eight corner samples (index 0 or size − 1 on each
-    /// axis), e.g. for [`crate::camera::CameraSpec::framing`].
+    /// The world positions of the grid's eight corner samples (index 0 or size − 1 on
+    /// each axis), e.g. for [`crate::camera::CameraSpec::framing`].
     pub fn world_corners(&self) -> [[f64; 3]; 8] {
-        corners(&self.itow, self.sizes)
+        corners(&self.itow, self.grid)
     }
 
     /// Minimum and maximum sample value (as f32).
@@ -226,6 +290,8 @@ impl<V: Voxel> OwnedVolume<V> {
         Volume {
             data: &self.data,
             sizes: self.sizes,
+            origin: [0; 3],
+            grid: self.sizes,
             itow: self.itow,
             wtoi: self.wtoi,
         }

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use rnd_core::brick::{Own, Partial};
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
 use rnd_core::skip::{SkipGrid, SkipPlan};
@@ -129,7 +130,7 @@ pub fn render_with(
     threads: usize,
     control: &Control<'_>,
 ) -> crate::Result<Vec<f32>> {
-    spec.check_volume(vol.sizes())?;
+    spec.check_volume(vol.grid())?;
     let [w, h] = spec.size();
     let image_err = |e: Error| Error {
         param: Some(Param::ImageSize),
@@ -224,6 +225,114 @@ pub fn render_with(
         },
     )
     .ok_or_else(cancelled)
+}
+
+/// One brick's part of a sort-last render (see [`rnd_core::brick`]): for every pixel the
+/// [`Partial`] of the stretch of its ray that `own` gives, from `vol`, the brick's
+/// [`Volume::region`] with its ghost layers, on `threads` threads (the same partials for
+/// every thread count). Empty space is skipped as in [`render`], with a grid built from
+/// the region.
+///
+/// # Errors
+/// As [`render_with`], and as [`RenderSpec::render_part_rows`].
+pub fn render_part_with(
+    spec: &RenderSpec<'_>,
+    vol: AnyVolume<'_>,
+    kernel: KernelName,
+    own: &Own,
+    threads: usize,
+    control: &Control<'_>,
+) -> crate::Result<Vec<Partial>> {
+    spec.check_volume(vol.grid())?;
+    spec.check_bricked()?;
+    let [w, h] = spec.size();
+    let (w, h) = (w as usize, h as usize);
+    let len = w.saturating_mul(h);
+    let what = format!("the partials of a {w} x {h} image");
+    let bytes = (len as u64).saturating_mul(std::mem::size_of::<Partial>() as u64);
+    crate::check_memory(bytes, &what).map_err(|e| Error {
+        param: Some(Param::ImageSize),
+        ..e
+    })?;
+    let mut out: Vec<Partial> = Vec::new();
+    crate::try_reserve(&mut out, len, &what)?;
+    let probe_len = spec.params().probe.length();
+    out.resize(len, Partial::empty(spec.params().blend, probe_len));
+    struct Task<'s, 'a, 'c> {
+        spec: &'s RenderSpec<'a>,
+        own: Own,
+        threads: usize,
+        control: &'s Control<'c>,
+        out: Vec<Partial>,
+    }
+    impl ConvoTask for Task<'_, '_, '_> {
+        type Output = crate::Result<Vec<Partial>>;
+        fn run<V: Voxel, K: Kernel<S>, const S: usize>(
+            self,
+            vol: Volume<'_, V>,
+        ) -> crate::Result<Vec<Partial>> {
+            let (spec, control, own) = (self.spec, self.control, &self.own);
+            let [w, h] = spec.size().map(|x| x as usize);
+            let mut out = self.out;
+            let done = AtomicUsize::new(0);
+            let failed: Mutex<Option<rnd_core::Error>> = Mutex::new(None);
+            let skip = spec
+                .skip_plan(&vol, K::NAME)
+                .map(|plan| build_skip_grid(plan, &vol, self.threads));
+            let queue = Mutex::new(out.chunks_mut(w * BAND).enumerate());
+            let work = || loop {
+                if control.cancelled() {
+                    break;
+                }
+                let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                let Some((b, chunk)) = next else { break };
+                let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
+                let n = rows.len();
+                let r = spec.render_part_rows(vol.into(), K::NAME, skip.as_ref(), own, rows, chunk);
+                if let Err(e) = r {
+                    if let Ok(mut f) = failed.lock() {
+                        f.get_or_insert(e);
+                    }
+                    break;
+                }
+                let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
+                if let Some(f) = control.progress {
+                    f(Progress { rows_done, rows: h });
+                }
+            };
+            if self.threads <= 1 {
+                work();
+            } else {
+                std::thread::scope(|s| {
+                    for _ in 0..self.threads {
+                        s.spawn(work);
+                    }
+                });
+            }
+            if let Some(e) = failed.into_inner().ok().flatten() {
+                return Err(e.into());
+            }
+            if done.load(Ordering::Relaxed) == h {
+                Ok(out)
+            } else {
+                Err(cancelled())
+            }
+        }
+    }
+    if control.cancelled() {
+        return Err(cancelled());
+    }
+    dispatch(
+        vol,
+        kernel,
+        Task {
+            spec,
+            own: *own,
+            threads,
+            control,
+            out,
+        },
+    )
 }
 
 fn cancelled() -> Error {
