@@ -1,11 +1,15 @@
 //! Running under an MPI launcher (cargo feature `mpi`): `mpirun -np N rendr turn ...`
 //! deals the frames to the ranks (sort-first; every rank reads the whole volume) and
-//! rank 0 writes them. Started without a launcher, rendr does not initialize MPI and
-//! behaves as a build without the feature.
+//! rank 0 writes them; `mpirun -np N rendr go ...` renders the volume in N bricks
+//! (sort-last, `rnd_core::brick`), composites the partials (one all-to-all exchange:
+//! each rank composites a band of rows) and rank 0 writes the image. Started without a
+//! launcher, rendr does not initialize MPI and behaves as a build without the feature.
 
 use mpi::collective::SystemOperation;
+use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use mpi::traits::*;
+use mpi::Count;
 
 /// Whether an MPI launcher started this process (Open MPI, or a PMI/PMIx launcher).
 fn launched() -> bool {
@@ -62,5 +66,44 @@ impl Ranks {
             .process_at_rank(from as i32)
             .receive_vec::<u8>()
             .0
+    }
+
+    /// Sends `parts[j]` to rank j, for every j (every rank must call it), and returns
+    /// what each rank sent this one, by rank (one MPI all-to-all).
+    pub fn exchange(&self, parts: &[Vec<u8>]) -> anyhow::Result<Vec<Vec<u8>>> {
+        let count = |n: usize| {
+            Count::try_from(n)
+                .map_err(|_| anyhow::anyhow!("{n} bytes is more than one MPI message may carry"))
+        };
+        let counts = parts
+            .iter()
+            .map(|p| count(p.len()))
+            .collect::<anyhow::Result<Vec<Count>>>()?;
+        let mut rcounts: Vec<Count> = vec![0; self.size];
+        self.world.all_to_all_into(&counts[..], &mut rcounts[..]);
+        let offsets = |c: &[Count]| -> anyhow::Result<Vec<Count>> {
+            let mut at = 0usize;
+            c.iter()
+                .map(|&n| {
+                    let here = count(at);
+                    at += n as usize;
+                    here
+                })
+                .collect()
+        };
+        let (sdispl, rdispl) = (offsets(&counts)?, offsets(&rcounts)?);
+        count(rcounts.iter().map(|&n| n as usize).sum())?;
+        let send = parts.concat();
+        let mut recv = vec![0u8; rcounts.iter().map(|&n| n as usize).sum()];
+        {
+            let sp = Partition::new(&send[..], &counts[..], &sdispl[..]);
+            let mut rp = PartitionMut::new(&mut recv[..], &rcounts[..], &rdispl[..]);
+            self.world.all_to_all_varcount_into(&sp, &mut rp);
+        }
+        Ok(rcounts
+            .iter()
+            .zip(&rdispl)
+            .map(|(&n, &d)| recv[d as usize..(d + n) as usize].to_vec())
+            .collect())
     }
 }

@@ -1,8 +1,9 @@
 //! rendr under MPI (cargo feature `mpi`; `cargo test -p rendr --features mpi --test mpi`):
 //! `mpirun -np N rendr turn` deals frames to ranks and writes exactly the frames one
 //! process writes; a rank that fails stops the whole job with its message, without a
-//! hang or any output; `go` refuses more than one process (bricked rendering is not
-//! built yet). Skipped without `mpirun` unless `RENDR_REQUIRE_MPI=1` (CI).
+//! hang or any output; `mpirun -np N rendr go` renders N bricks and composites them:
+//! `max` bit-identical to one process, `over`, `sum` and `mean` within 1e-6. Skipped
+//! without `mpirun` unless `RENDR_REQUIRE_MPI=1` (CI).
 #![cfg(feature = "mpi")]
 
 use std::path::{Path, PathBuf};
@@ -146,34 +147,175 @@ fn a_failing_rank_stops_the_job_with_its_message_and_no_output() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The floats of a NRRD image `rendr go` wrote.
+fn floats(path: &Path) -> Vec<f32> {
+    match rnd_std::nrrd::read(path).unwrap().data {
+        rnd_std::nrrd::Data::F32(v) => v,
+        d => panic!("{}: not float data: {d:?}", path.display()),
+    }
+}
+
+/// `go` options of the test scenes: the bundled head (i16) lit `over` with its LUT and
+/// lights, and MIPs and sums of a synthetic float volume, perspective and orthographic.
+fn go_scenes() -> Vec<(&'static str, bool, Vec<String>)> {
+    let head = data("itk-t1-head.nrrd").display().to_string();
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let head_cam = s(&[
+        "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1", "-nc",
+        "-150", "-fc", "150", "-fov", "30", "-sz", "64", "56",
+    ]);
+    let syn_cam = s(&[
+        "-fr", "4", "3", "2.5", "-at", "0", "0", "0", "-up", "0", "0", "1", "-nc", "-3", "-fc",
+        "3", "-fov", "25", "-sz", "41", "37",
+    ]);
+    let mut out = Vec::new();
+    let mut lit = s(&[
+        "-i", &head, "-k", "bspln3", "-p", "rgbalit", "-b", "over", "-s", "1", "-us", "2",
+    ]);
+    lit.extend(head_cam.clone());
+    lit.extend(s(&["-lut", &data("head-lut.nrrd").display().to_string()]));
+    lit.extend(s(&["-lit", &data("head-lights.txt").display().to_string()]));
+    out.push(("head over", false, lit));
+    let mut mip = s(&[
+        "-i", &head, "-k", "tent", "-p", "v", "-b", "max", "-s", "0.7",
+    ]);
+    mip.extend(head_cam);
+    out.push(("head max", true, mip));
+    for (name, exact, k, p, b, ortho) in [
+        ("syn max gm", true, "bspln3", "gm", "max", false),
+        ("syn max v ortho", true, "ctmr", "v", "max", true),
+        ("syn sum", false, "tent", "v", "sum", false),
+        ("syn mean ref false", false, "bspln2", "v", "mean", true),
+    ] {
+        let mut v = s(&["-i", "syn.nrrd", "-k", k, "-p", p, "-b", b, "-s", "0.05"]);
+        v.extend(syn_cam.clone());
+        if ortho {
+            v.push("-ortho".into());
+        }
+        if name.ends_with("ref false") {
+            v.extend(s(&["-ref", "false"]));
+        }
+        out.push((name, exact, v));
+    }
+    out
+}
+
 #[test]
-fn go_refuses_more_than_one_process() {
+fn go_under_mpi_renders_in_bricks_the_image_of_one_process() {
     if !have_mpirun() {
         return;
     }
     let dir = tmp("go");
-    let mut args: Vec<String> = ["-np", "2", RENDR, "go", "-i"].map(String::from).to_vec();
-    args.push(data("itk-t1-head.nrrd").display().to_string());
-    args.extend(
-        [
-            "-k", "tent", "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0",
-            "0", "1", "-nc", "-150", "-fc", "150", "-fov", "30", "-sz", "16", "16", "-o", "x.png",
-        ]
-        .map(String::from),
-    );
-    let out = mpirun(&dir, &args);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("one process"), "{err}");
-    assert!(!dir.join("x.png").exists());
-    // One process under mpirun renders as without it.
-    args[1] = "1".into();
-    let out = mpirun(&dir, &args);
+    let sdg = Command::new(RENDR)
+        .args([
+            "sdg", "-w", "12", "-sz", "45", "38", "31", "-r", "0.1", "0.2", "0", "-o",
+        ])
+        .arg("syn.nrrd")
+        .current_dir(&dir)
+        .output()
+        .unwrap();
     assert!(
-        out.status.success(),
+        sdg.status.success(),
         "{}",
-        String::from_utf8_lossy(&out.stderr)
+        String::from_utf8_lossy(&sdg.stderr)
     );
-    assert!(dir.join("x.png").exists());
+    for (name, exact, args) in go_scenes() {
+        let one = Command::new(RENDR)
+            .arg("go")
+            .args(&args)
+            .args(["-o", "one.nrrd"])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert!(
+            one.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&one.stderr)
+        );
+        let a = floats(&dir.join("one.nrrd"));
+        assert!(a.iter().any(|&x| x != 0.0), "{name}: an empty image");
+        for np in 1..=4 {
+            let mut m = vec![
+                "-np".to_string(),
+                np.to_string(),
+                RENDR.to_string(),
+                "go".into(),
+            ];
+            m.extend(args.iter().cloned());
+            m.extend([
+                "-nt".to_string(),
+                "1".to_string(),
+                "-o".into(),
+                format!("np{np}.nrrd"),
+            ]);
+            let out = mpirun(&dir, &m);
+            assert!(
+                out.status.success(),
+                "{name} np {np}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let b = floats(&dir.join(format!("np{np}.nrrd")));
+            assert_eq!(a.len(), b.len());
+            if exact {
+                let same = a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same, "{name} np {np}: max is not bit-identical");
+            } else {
+                for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                    let tol = 1e-6 * x.abs().max(y.abs()).max(1.0);
+                    assert!(
+                        (x - y).abs() <= tol,
+                        "{name} np {np}: float {i}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tmp("gofail");
+    let (_, _, good) = go_scenes().remove(1);
+    let mut go = vec!["go".to_string()];
+    go.extend(good);
+    go.extend(["-o".to_string(), "x.png".to_string()]);
+    let mut bad = go.clone();
+    bad.extend(["-lut".to_string(), "/nonexistent/lut.nrrd".to_string()]);
+    let mut args: Vec<String> = Vec::new();
+    for (i, a) in [&go, &go, &bad].iter().enumerate() {
+        if i > 0 {
+            args.push(":".into());
+        }
+        args.extend(["-np".to_string(), "1".to_string(), RENDR.to_string()]);
+        args.extend(a.iter().cloned());
+    }
+    let out = mpirun(&dir, &args);
+    assert!(!out.status.success(), "the job succeeded");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("rendr go: rank 2 of 3: ") && err.contains("/nonexistent/lut.nrrd"),
+        "{err}"
+    );
+    assert!(!dir.join("x.png").exists());
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(left.is_empty(), "output left behind: {left:?}");
+    // The median and -db cannot be split: refused with a message, nothing written.
+    for (extra, msg) in [
+        (&["-b", "median"][..], "median"),
+        (&["-db", "3", "3"], "-db"),
+    ] {
+        let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into()];
+        m.extend(go.iter().cloned());
+        m.extend(extra.iter().map(|x| x.to_string()));
+        let out = mpirun(&dir, &m);
+        assert!(!out.status.success(), "{extra:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(msg), "{extra:?}: {err}");
+        assert!(!dir.join("x.png").exists());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

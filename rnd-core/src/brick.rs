@@ -287,11 +287,69 @@ impl Partial {
         Ok(acc)
     }
 
+    /// Bytes [`Partial::encode`] writes for a partial of `blend` with `len` channels.
+    pub fn record_len(blend: Blend, len: usize) -> usize {
+        let len = len.min(crate::blend::MAX_CHANNELS);
+        16 + 4 * len + if squares(blend) { 16 * len } else { 0 }
+    }
+
+    /// Appends the partial to `out` in [`Partial::record_len`] bytes (little-endian:
+    /// first, end, count, transparency, the accumulated channels and, for `l2`,
+    /// `variance` and `sd`, their f64 sums), for sending to another process.
+    pub fn encode(&self, out: &mut Vec<u8>) {
+        let len = self.acc.len.min(crate::blend::MAX_CHANNELS);
+        for w in [self.first, self.end, self.acc.count, self.transp.to_bits()] {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+        for c in 0..len {
+            out.extend_from_slice(&self.acc.acc[c].to_le_bytes());
+        }
+        if squares(self.acc.blend) {
+            for c in 0..len {
+                for x in self.acc.sums[c] {
+                    out.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+    }
+
+    /// The partial of `blend` with `len` channels at the start of `b` (as
+    /// [`Partial::encode`] wrote it); `None` when `b` is too short.
+    pub fn decode(b: &[u8], blend: Blend, len: usize) -> Option<Partial> {
+        let n = Partial::record_len(blend, len);
+        let b = b.get(..n)?;
+        let word = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+        let mut p = Partial::empty(blend, len);
+        (p.first, p.end, p.acc.count) = (word(0), word(4), word(8));
+        p.transp = f32::from_bits(word(12));
+        let len = len.min(crate::blend::MAX_CHANNELS);
+        for c in 0..len {
+            p.acc.acc[c] = f32::from_bits(word(16 + 4 * c));
+        }
+        if squares(blend) {
+            let at = 16 + 4 * len;
+            for c in 0..len {
+                for (h, x) in p.acc.sums[c].iter_mut().enumerate() {
+                    let i = at + 16 * c + 8 * h;
+                    let lo = u64::from(word(i));
+                    let hi = u64::from(word(i + 4));
+                    *x = f64::from_bits(lo | hi << 32);
+                }
+            }
+        }
+        Some(p)
+    }
+
     /// The pixel: the blend's result into `out[..len]`, `outside` when nothing was
     /// blended (see [`Accum::finish`]).
     pub fn finish(&self, outside: f32, out: &mut [f32]) {
         self.acc.finish(outside, None, out);
     }
+}
+
+/// Whether `blend` keeps f64 sums (`l2`, `variance`, `sd`).
+fn squares(blend: Blend) -> bool {
+    matches!(blend, Blend::L2 | Blend::Variance | Blend::Sd)
 }
 
 /// Splits a volume of `sizes` voxels into `n` bricks (see the [module](self) for the
@@ -358,6 +416,27 @@ mod tests {
                     let n = bricks.iter().filter(|b| b.contains([i, j, k])).count();
                     assert_eq!(n, 1, "voxel {i} {j} {k} in {n} bricks");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn partials_decode_what_they_encode() {
+        for blend in Blend::ALL {
+            for len in [1, 4, 9] {
+                let mut p = Partial::empty(blend, len);
+                (p.first, p.end, p.acc.count, p.transp) = (3, 17, 11, 0.25);
+                for c in 0..len {
+                    p.acc.acc[c] = c as f32 * 1.5 - 2.0;
+                    if squares(blend) {
+                        p.acc.sums[c] = [c as f64 / 3.0, -1e300];
+                    }
+                }
+                let mut b = Vec::new();
+                p.encode(&mut b);
+                assert_eq!(b.len(), Partial::record_len(blend, len));
+                assert_eq!(Partial::decode(&b, blend, len), Some(p), "{blend} {len}");
+                assert_eq!(Partial::decode(&b[1..], blend, len), None);
             }
         }
     }

@@ -279,14 +279,202 @@ fn trace_pixel(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName, px
 pub fn run(a: &Args) -> anyhow::Result<()> {
     #[cfg(feature = "mpi")]
     if let Some(job) = crate::job::ranks() {
-        bail!(
-            "run under mpirun with {} processes: go renders in one process (bricked \
-             rendering across processes is not built yet; \"rendr turn\" deals frames to \
-             processes)",
-            job.size
-        );
+        return run_bricked(a, &job);
     }
     run_cached(a, &mut VolumeCache::default(), &[])
+}
+
+/// Every rank's `r` when all succeeded; when any failed, this rank's error (with its
+/// rank) or, on the ranks that did not fail, `None` (they stop quietly).
+#[cfg(feature = "mpi")]
+fn agree<T>(job: &crate::job::Ranks, r: anyhow::Result<T>) -> anyhow::Result<Option<T>> {
+    if !job.any(r.is_err()) {
+        return r.map(Some);
+    }
+    match r {
+        Err(e) => Err(e.context(format!("rank {} of {}", job.rank, job.size))),
+        Ok(_) => Ok(None),
+    }
+}
+
+/// `go` under MPI, sort-last: rank r renders brick r of the k-d decomposition
+/// (`rnd_core::brick`) from the brick and its ghost layers only; the partials are
+/// exchanged so that each rank composites, in ray order, a band of image rows; rank 0
+/// gathers the bands and writes the image (prepared before anything is read, as in one
+/// process). Any rank's failure stops every rank, with its message, and nothing is
+/// written.
+#[cfg(feature = "mpi")]
+fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
+    use rnd_core::brick::{decompose, ghosts, Own, Partial};
+    use rnd_std::volume_io::Samples;
+    let (n, rank) = (job.size, job.rank);
+    // Options, output (rank 0) and classification, checked on every rank.
+    let setup = (|| {
+        let (params, kernel, threads) = params(a)?;
+        let db = a.get_arr::<i32, 2>("db")?;
+        if db[0] >= 0 || db[1] >= 0 {
+            bail!("-db traces a ray in one process: run it without mpirun");
+        }
+        let q = quant_range(a)?;
+        let out = a.get_str("o").context("missing -o (output file)")?;
+        let input = a.get_str("i").unwrap_or_default();
+        let inputs: Vec<String> = std::iter::once(input.clone())
+            .chain(["lut", "lev", "lit"].iter().filter_map(|f| a.get_str(f)))
+            .collect();
+        let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+        let output = match rank {
+            0 => Some(super::output(&out, a, &inputs).context("-o")?),
+            _ => None,
+        };
+        Ok((params, kernel, threads, q, PathBuf::from(input), output))
+    })();
+    let Some((params, kernel, threads, q, input, output)) = agree(job, setup)? else {
+        return Ok(());
+    };
+    let cls = classification(a);
+    let Some((lut, lev, lights)) = agree(job, cls)? else {
+        return Ok(());
+    };
+    let spec = RenderSpec::new(
+        params,
+        lut.as_ref(),
+        lev.as_ref(),
+        lights.as_deref().unwrap_or(&[]),
+    )
+    .map_err(anyhow::Error::from)
+    .and_then(|s| s.check_bricked().map(|_| s).map_err(anyhow::Error::from));
+    let Some(spec) = agree(job, spec)? else {
+        return Ok(());
+    };
+    // This rank's brick, read and rendered.
+    let parts = (|| {
+        let whole = rnd_std::volume_io::load_volume_threads(&input, threads)?;
+        let grid = whole.sizes();
+        spec.check_volume(grid)
+            .with_context(|| input.display().to_string())?;
+        let brick = decompose(grid, n)
+            .with_context(|| format!("{}: splitting it for {n} processes", input.display()))?[rank];
+        let (below, above) = ghosts(kernel);
+        let region = brick.grown(below, above, grid);
+        let own = Own::of(&brick, grid);
+        let control = rnd_std::parallel::Control::new();
+        let itow = whole.itow();
+        // The region's samples are copied out and the whole volume let go before the
+        // render.
+        let parts = match whole.data() {
+            Samples::F32(d) => {
+                let v = cut(d, grid, &region);
+                drop(whole);
+                let vol = rnd_core::volume::Volume::region(&v, grid, region, itow)?;
+                rnd_std::parallel::render_part_with(
+                    &spec,
+                    vol.into(),
+                    kernel,
+                    &own,
+                    threads,
+                    &control,
+                )?
+            }
+            Samples::I16(d) => {
+                let v = cut(d, grid, &region);
+                drop(whole);
+                let vol = rnd_core::volume::Volume::region(&v, grid, region, itow)?;
+                rnd_std::parallel::render_part_with(
+                    &spec,
+                    vol.into(),
+                    kernel,
+                    &own,
+                    threads,
+                    &control,
+                )?
+            }
+        };
+        anyhow::Ok(parts)
+    })();
+    let Some(parts) = agree(job, parts)? else {
+        return Ok(());
+    };
+    // Rank j composites rows band(j); each rank sends it the partials of those rows.
+    let [w, h] = spec.size().map(|x| x as usize);
+    let band = |j: usize| (j * h / n) * w..((j + 1) * h / n) * w;
+    let (blend, len) = (spec.params().blend, spec.params().probe.length());
+    let sends: Vec<Vec<u8>> = (0..n)
+        .map(|j| {
+            let mut b = Vec::with_capacity(band(j).len() * Partial::record_len(blend, len));
+            for p in &parts[band(j)] {
+                p.encode(&mut b);
+            }
+            b
+        })
+        .collect();
+    drop(parts);
+    let mine = (|| {
+        let got = job.exchange(&sends)?;
+        let rec = Partial::record_len(blend, len);
+        let ch = spec.channels();
+        let mut px = Vec::with_capacity(n);
+        let mut out = Vec::with_capacity(band(rank).len() * ch * 4);
+        let mut pixel = vec![0.0f32; ch];
+        for i in 0..band(rank).len() {
+            px.clear();
+            for g in &got {
+                let p = g
+                    .get(i * rec..)
+                    .and_then(|b| Partial::decode(b, blend, len));
+                px.push(p.context("a rank sent too few partials")?);
+            }
+            let whole_ray = Partial::composite_all(&mut px, spec.params().reference)?;
+            whole_ray.finish(spec.params().outside, &mut pixel);
+            for x in &pixel {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        anyhow::Ok(out)
+    })();
+    drop(sends);
+    let Some(mine) = agree(job, mine)? else {
+        return Ok(());
+    };
+    if rank != 0 {
+        job.send_to_root(&mine);
+        return Ok(());
+    }
+    let mut data = Vec::with_capacity(w * h * spec.channels());
+    for j in 0..n {
+        let b = if j == 0 {
+            mine.clone()
+        } else {
+            job.receive_from(j)
+        };
+        data.extend(
+            b.chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+        );
+    }
+    if data.len() != w * h * spec.channels() {
+        bail!("the ranks sent {} floats for a {w} x {h} image", data.len());
+    }
+    let img = Image {
+        data,
+        channels: spec.channels(),
+        size: [w, h],
+    };
+    let output = output.context("missing -o (output file)")?;
+    write_image_to(img, output, &super::content("go", a), q).context("writing the image")?;
+    Ok(())
+}
+
+/// The samples of box `b` of a volume's `data` of `sizes` (fast axis first).
+#[cfg(feature = "mpi")]
+fn cut<T: Copy>(data: &[T], sizes: [usize; 3], b: &rnd_core::brick::Brick) -> Vec<T> {
+    let mut out = Vec::with_capacity(b.voxels());
+    for k in b.lo[2]..b.hi[2] {
+        for j in b.lo[1]..b.hi[1] {
+            let row = sizes[0] * (j + sizes[1] * k);
+            out.extend_from_slice(&data[row + b.lo[0]..row + b.hi[0]]);
+        }
+    }
+    out
 }
 
 /// The last volume loaded (used by `mgo`, so consecutive renderings of one volume read
