@@ -680,7 +680,7 @@ impl<'a> RenderSpec<'a> {
         Ok(())
     }
 
-    /// Renders, for each pixel of image rows `rows`, the [`Partial`] of the stretch of
+    /// Renders, for each pixel of image rows `rows`, the [`Partial`](crate::brick::Partial) of the stretch of
     /// its ray that `own` gives (one brick of a sort-last render, see [`crate::brick`]),
     /// from `vol`, the brick's [`Volume::region`] with the ghost layers of
     /// [`crate::brick::ghosts`], into `out` (one per pixel, rows consecutive). `skip`
