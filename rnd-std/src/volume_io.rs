@@ -7,8 +7,9 @@
 use std::path::Path;
 
 use rnd_core::affine::Affine4;
+use rnd_core::brick::Brick;
 use rnd_core::render::AnyVolume;
-use rnd_core::volume::OwnedVolume;
+use rnd_core::volume::{OwnedVolume, Volume};
 
 use crate::formats::Format;
 use crate::nrrd::{self, Centering, Data, Nrrd};
@@ -155,6 +156,107 @@ pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
     v.format = l.format;
     v.notes.splice(0..0, l.notes);
     Ok(v)
+}
+
+/// The part of a volume one process of a bricked render holds: the samples of `region`
+/// (in a grid of `grid` samples), and the geometry of the whole grid.
+#[derive(Debug)]
+pub struct RegionBuf {
+    /// The region's samples as a volume of the region's sizes (its ItoW is the grid's,
+    /// so use it through [`RegionBuf::view`]).
+    pub buf: VolumeBuf,
+    /// The whole grid's sizes.
+    pub grid: [usize; 3],
+    /// The box held.
+    pub region: Brick,
+    /// Whether only the region was read from the file (a NRRD of raw, gzip or bzip2 data
+    /// in one file); otherwise the whole volume was read and the region copied out.
+    pub partial_read: bool,
+}
+
+impl RegionBuf {
+    /// The region as a [`Volume::region`] of the grid, for rendering its bricks.
+    ///
+    /// # Errors
+    /// [`crate::ErrorKind::Core`] (volume) when the fields were changed so that the
+    /// region no longer lies in the grid or the samples do not fill it.
+    pub fn view(&self) -> Result<AnyVolume<'_>> {
+        let (g, r, itow) = (self.grid, self.region, self.buf.itow());
+        Ok(match self.buf.data() {
+            Samples::F32(d) => AnyVolume::F32(Volume::region(d, g, r, itow)?),
+            Samples::I16(d) => AnyVolume::I16(Volume::region(d, g, r, itow)?),
+        })
+    }
+}
+
+/// Reads the box `pick(grid)` of the volume in `path` (given the grid's sizes): from a
+/// NRRD of raw, gzip or bzip2 data only that box is read and held
+/// ([`crate::nrrd::read_region`]); any other file is read whole, the box copied out and
+/// the rest let go (so the peak memory is the whole volume's for those).
+///
+/// # Errors
+/// As [`load_volume`], and those of `pick`.
+pub fn load_volume_region(
+    path: &Path,
+    threads: usize,
+    pick: impl FnOnce([usize; 3]) -> rnd_core::Result<Brick>,
+) -> Result<RegionBuf> {
+    let mut pick = Some(pick);
+    let mut pick_once = |g: [usize; 3]| -> Result<Brick> {
+        let f = pick
+            .take()
+            .ok_or_else(|| Error::msg("region chosen twice"))?;
+        f(g).map_err(|e| Error::from(e).with_path(path))
+    };
+    // (None for anything but a NRRD read in parts.)
+    if let Some((n, grid, region)) = crate::nrrd::read_region(path, &mut pick_once)? {
+        let mut buf = volume_from_nrrd(n).map_err(|e| e.with_path(path))?;
+        buf.format = Format::Nrrd;
+        return Ok(RegionBuf {
+            buf,
+            grid,
+            region,
+            partial_read: true,
+        });
+    }
+    let whole = load_volume_threads(path, threads)?;
+    let grid = whole.sizes();
+    let region = pick_once(grid)?;
+    let cut = |b: &Brick| -> Result<VolumeData> {
+        fn copy<T: Copy>(d: &[T], g: [usize; 3], b: &Brick) -> Result<Vec<T>> {
+            let mut out = Vec::new();
+            crate::try_reserve(&mut out, b.voxels(), "the region's samples")?;
+            for k in b.lo[2]..b.hi[2] {
+                for j in b.lo[1]..b.hi[1] {
+                    let row = g[0] * (j + g[1] * k);
+                    out.extend_from_slice(&d[row + b.lo[0]..row + b.hi[0]]);
+                }
+            }
+            Ok(out)
+        }
+        if (0..3).any(|a| b.lo[a] >= b.hi[a] || b.hi[a] > grid[a]) {
+            return Err(Error::msg(format!(
+                "region {:?}..{:?} is empty or leaves the grid {grid:?}",
+                b.lo, b.hi
+            )));
+        }
+        Ok(match whole.data() {
+            Samples::F32(d) => VolumeData::F32(copy(d, grid, b)?),
+            Samples::I16(d) => VolumeData::I16(copy(d, grid, b)?),
+        })
+    };
+    let data = cut(&region).map_err(|e| e.with_path(path))?;
+    let mut buf = VolumeBuf::new(data, region.sizes(), whole.itow())?;
+    buf.file_type = whole.file_type.clone();
+    buf.space = whole.space.clone();
+    buf.notes = whole.notes.clone();
+    buf.format = whole.format;
+    Ok(RegionBuf {
+        buf,
+        grid,
+        region,
+        partial_read: false,
+    })
 }
 
 /// Builds a volume from an in-memory NRRD.

@@ -265,3 +265,95 @@ fn bricks_refuse_what_they_cannot_split() {
     };
     assert_eq!(Partial::composite_all(&mut [d, a], false).unwrap().end, 9);
 }
+
+/// A region read from a NRRD (raw little- and big-endian, gzip, bzip2, a detached data
+/// file, a byte skip, 16-bit, float and 8-bit samples, a leading axis of 1) holds the
+/// samples and geometry of the same box of the whole volume, read in parts; a region
+/// outside the grid is refused.
+#[test]
+fn region_reads_hold_the_box_of_the_whole_volume() {
+    use rnd_std::nrrd::{self, Data, Encoding, Endian, Nrrd, WriteOptions};
+    use rnd_std::volume_io::load_volume_region;
+    let dir = std::env::temp_dir().join(format!("rendr-bricks-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sizes = [13usize, 9, 11];
+    let n = sizes.iter().product::<usize>();
+    let datas = [
+        Data::I16((0..n).map(|i| (i as i16).wrapping_mul(37)).collect()),
+        Data::F32((0..n).map(|i| (i as f32).sin() * 100.0).collect()),
+        Data::U8((0..n).map(|i| (i * 7 % 251) as u8).collect()),
+    ];
+    let mut files = Vec::new();
+    for (d, data) in datas.into_iter().enumerate() {
+        for (e, (encoding, endian)) in [
+            (Encoding::Raw, Endian::Little),
+            (Encoding::Raw, Endian::Big),
+            (Encoding::Gzip, Endian::Little),
+            (Encoding::Bzip2, Endian::Big),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let lead = e == 1;
+            let sz: Vec<usize> = if lead {
+                std::iter::once(1).chain(sizes).collect()
+            } else {
+                sizes.to_vec()
+            };
+            let mut a = Nrrd::new(sz, data.clone()).unwrap();
+            let dirs = [[0.5, 0.1, 0.0], [0.0, 0.7, 0.2], [0.1, 0.0, 0.9]];
+            let mut sd: Vec<Option<Vec<f64>>> = dirs.iter().map(|d| Some(d.to_vec())).collect();
+            if lead {
+                sd.insert(0, None);
+            }
+            a.header.space_directions = Some(sd);
+            a.header.space_origin = Some(vec![1.0, -2.0, 3.5]);
+            a.header.space_dimension = Some(3);
+            let p = dir.join(format!("v{d}{e}.nrrd"));
+            nrrd::write(&a, &p, WriteOptions { encoding, endian }).unwrap();
+            files.push(p);
+        }
+    }
+    // A detached raw data file after a byte skip.
+    let raw: Vec<u8> = (0..n).flat_map(|i| (i as i16).to_le_bytes()).collect();
+    let mut bytes = b"junk!".to_vec();
+    bytes.extend(&raw);
+    std::fs::write(dir.join("d.raw"), &bytes).unwrap();
+    std::fs::write(
+        dir.join("d.nhdr"),
+        "NRRD0004\ntype: short\ndimension: 3\nsizes: 13 9 11\nencoding: raw\n\
+         endian: little\nbyte skip: 5\ndata file: d.raw\n",
+    )
+    .unwrap();
+    files.push(dir.join("d.nhdr"));
+    for f in &files {
+        let whole = load_volume(f).unwrap();
+        assert_eq!(whole.sizes(), sizes, "{}", f.display());
+        for n in [1, 2, 3, 5] {
+            for b in decompose(sizes, n).unwrap() {
+                let g = b.grown(2, 3, sizes);
+                let r = load_volume_region(f, 1, |grid| {
+                    assert_eq!(grid, sizes);
+                    Ok(g)
+                })
+                .unwrap();
+                assert!(r.partial_read, "{}", f.display());
+                assert_eq!((r.grid, r.region), (sizes, g));
+                assert_eq!(r.buf.itow(), whole.itow(), "{}", f.display());
+                assert_eq!(r.view().unwrap().grid(), sizes);
+                match (whole.data(), r.buf.data()) {
+                    (Samples::F32(a), Samples::F32(b)) => assert!(cut(a, sizes, &g) == b),
+                    (Samples::I16(a), Samples::I16(b)) => assert!(cut(a, sizes, &g) == b),
+                    _ => panic!("{}: sample types differ", f.display()),
+                }
+            }
+        }
+        let bad = Brick {
+            lo: [0, 0, 0],
+            hi: [14, 9, 11],
+        };
+        let e = load_volume_region(f, 1, |_| Ok(bad)).unwrap_err();
+        assert!(e.to_string().contains("leaves the grid"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -306,7 +306,6 @@ fn agree<T>(job: &crate::job::Ranks, r: anyhow::Result<T>) -> anyhow::Result<Opt
 #[cfg(feature = "mpi")]
 fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
     use rnd_core::brick::{decompose, ghosts, Own, Partial};
-    use rnd_std::volume_io::Samples;
     let (n, rank) = (job.size, job.rank);
     // Options, output (rank 0) and classification, checked on every rank.
     let setup = (|| {
@@ -346,49 +345,40 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
     let Some(spec) = agree(job, spec)? else {
         return Ok(());
     };
-    // This rank's brick, read and rendered.
+    // This rank's brick, read (only it and its ghost layers, from a NRRD) and rendered.
     let parts = (|| {
-        let whole = rnd_std::volume_io::load_volume_threads(&input, threads)?;
-        let grid = whole.sizes();
-        spec.check_volume(grid)
-            .with_context(|| input.display().to_string())?;
-        let brick = decompose(grid, n)
-            .with_context(|| format!("{}: splitting it for {n} processes", input.display()))?[rank];
         let (below, above) = ghosts(kernel);
-        let region = brick.grown(below, above, grid);
-        let own = Own::of(&brick, grid);
+        let mut own = None;
+        let region = rnd_std::volume_io::load_volume_region(&input, threads, |grid| {
+            let brick = decompose(grid, n)?[rank];
+            own = Some(Own::of(&brick, grid));
+            Ok(brick.grown(below, above, grid))
+        })?;
+        spec.check_volume(region.grid)
+            .with_context(|| input.display().to_string())?;
+        let own = own.context("no brick was chosen")?;
+        if std::env::var_os("RENDR_VERBOSE_BRICKS").is_some() {
+            eprintln!(
+                "rendr go: rank {rank} of {n}: samples {:?}..{:?} of {:?}{}",
+                region.region.lo,
+                region.region.hi,
+                region.grid,
+                if region.partial_read {
+                    ", read alone"
+                } else {
+                    ", cut from the whole volume"
+                }
+            );
+        }
         let control = rnd_std::parallel::Control::new();
-        let itow = whole.itow();
-        // The region's samples are copied out and the whole volume let go before the
-        // render.
-        let parts = match whole.data() {
-            Samples::F32(d) => {
-                let v = cut(d, grid, &region);
-                drop(whole);
-                let vol = rnd_core::volume::Volume::region(&v, grid, region, itow)?;
-                rnd_std::parallel::render_part_with(
-                    &spec,
-                    vol.into(),
-                    kernel,
-                    &own,
-                    threads,
-                    &control,
-                )?
-            }
-            Samples::I16(d) => {
-                let v = cut(d, grid, &region);
-                drop(whole);
-                let vol = rnd_core::volume::Volume::region(&v, grid, region, itow)?;
-                rnd_std::parallel::render_part_with(
-                    &spec,
-                    vol.into(),
-                    kernel,
-                    &own,
-                    threads,
-                    &control,
-                )?
-            }
-        };
+        let parts = rnd_std::parallel::render_part_with(
+            &spec,
+            region.view()?,
+            kernel,
+            &own,
+            threads,
+            &control,
+        )?;
         anyhow::Ok(parts)
     })();
     let Some(parts) = agree(job, parts)? else {
@@ -462,19 +452,6 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
     let output = output.context("missing -o (output file)")?;
     write_image_to(img, output, &super::content("go", a), q).context("writing the image")?;
     Ok(())
-}
-
-/// The samples of box `b` of a volume's `data` of `sizes` (fast axis first).
-#[cfg(feature = "mpi")]
-fn cut<T: Copy>(data: &[T], sizes: [usize; 3], b: &rnd_core::brick::Brick) -> Vec<T> {
-    let mut out = Vec::with_capacity(b.voxels());
-    for k in b.lo[2]..b.hi[2] {
-        for j in b.lo[1]..b.hi[1] {
-            let row = sizes[0] * (j + sizes[1] * k);
-            out.extend_from_slice(&data[row + b.lo[0]..row + b.hi[0]]);
-        }
-    }
-    out
 }
 
 /// The last volume loaded (used by `mgo`, so consecutive renderings of one volume read

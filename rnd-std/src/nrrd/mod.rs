@@ -12,8 +12,8 @@ mod write;
 
 pub use header::{Centering, Encoding, Endian, Header, ScalarType};
 pub use read::{
-    centering, data_limit_bytes, input_files, read, read_bytes, read_with_threads, HEADER_MAX,
-    SKIP_MAX, TEXT_MAX,
+    centering, data_limit_bytes, input_files, read, read_bytes, read_region, read_with_threads,
+    HEADER_MAX, SKIP_MAX, TEXT_MAX,
 };
 pub use text::{parse_text, write_text};
 pub use write::{volume_nrrd, write, write_to, write_volume, WriteOptions, CONTENT_MAX};

@@ -242,6 +242,17 @@ fn header_string(b: &[u8]) -> Result<String> {
 /// arrays, several or non-regular data files, ascii/hex data), which [`read_from`]
 /// reads. Errors about the data of a detached header name the data file.
 fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
+    read_streaming_with(path, |r, parsed, p| {
+        stream_data(r, parsed, p, threads).map(Some)
+    })
+}
+
+/// [`read_streaming`]'s file handling around `data`, which reads the data from the
+/// reader (positioned at the data's start, before the skips) and the parsed header.
+fn read_streaming_with<T>(
+    path: &Path,
+    data: impl FnOnce(std::io::BufReader<std::fs::File>, Parsed, &Path) -> Result<Option<T>>,
+) -> Result<Option<T>> {
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, "can't read", e))?;
     let mut r = std::io::BufReader::with_capacity(1 << 16, f);
     let head = r.fill_buf().map_err(|e| Error::io(path, "can't read", e))?;
@@ -255,7 +266,7 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
         return Ok(None);
     }
     let Some(files) = data_file else {
-        return stream_data(r, parsed, path, threads).map(Some);
+        return data(r, parsed, path);
     };
     let [one] = files.as_slice() else {
         return Ok(None);
@@ -268,9 +279,142 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     }
     let f = std::fs::File::open(&p).map_err(|e| Error::io(&p, "can't read detached data", e))?;
     let r = std::io::BufReader::with_capacity(1 << 16, f);
-    stream_data(r, parsed, &p, threads)
-        .map(Some)
-        .map_err(|e| e.with_path(&p))
+    data(r, parsed, &p).map_err(|e| e.with_path(&p))
+}
+
+/// A 3-D volume's samples in the box `pick(grid)` (for its `grid` of sizes: the three
+/// axes of a 3-D array, or of a 4-D one whose first axis has size 1), read without
+/// holding the rest: raw data by seeking from row to row, gzip and bzip2 data by
+/// decompressing and dropping what lies outside the box, and nothing past the box's
+/// last row. Returns the array of the box (its header's sizes those of the box; every
+/// other field, geometry included, as the file says, so index positions stay the
+/// grid's), the grid and the box; `None` when the file is not one read this way (other
+/// encodings, several or non-regular data files, not 3-D: read it whole). Memory is
+/// checked for the box only.
+///
+/// # Errors
+/// As [`read`], and those of `pick`.
+pub fn read_region(
+    path: &Path,
+    pick: impl FnOnce([usize; 3]) -> Result<rnd_core::brick::Brick>,
+) -> Result<Option<(Nrrd, [usize; 3], rnd_core::brick::Brick)>> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, "can't read", e))?;
+    if !meta.is_file() {
+        return Ok(None);
+    }
+    read_streaming_with(path, |r, parsed, p| stream_region(r, parsed, p, pick))
+        .map_err(|e| e.with_path(path))
+}
+
+/// The data source of [`stream_region`]: a raw file (skipped by seeking) or a
+/// decompressing stream (skipped by reading).
+enum Source {
+    Raw(std::io::BufReader<std::fs::File>),
+    Coded(Box<dyn Read>),
+}
+
+impl Source {
+    fn skip(&mut self, n: u64) -> std::io::Result<()> {
+        match self {
+            Source::Raw(r) => {
+                let n = i64::try_from(n).map_err(std::io::Error::other)?;
+                r.seek_relative(n)
+            }
+            Source::Coded(r) => {
+                let got = std::io::copy(&mut r.take(n), &mut std::io::sink())?;
+                if got < n {
+                    return Err(std::io::ErrorKind::UnexpectedEof.into());
+                }
+                Ok(())
+            }
+        }
+    }
+    fn read_exact(&mut self, b: &mut [u8]) -> std::io::Result<()> {
+        match self {
+            Source::Raw(r) => r.read_exact(b),
+            Source::Coded(r) => r.read_exact(b),
+        }
+    }
+}
+
+fn stream_region(
+    mut r: std::io::BufReader<std::fs::File>,
+    mut parsed: Parsed,
+    path: &Path,
+    pick: impl FnOnce([usize; 3]) -> Result<rnd_core::brick::Brick>,
+) -> Result<Option<(Nrrd, [usize; 3], rnd_core::brick::Brick)>> {
+    let enc = parsed.encoding;
+    let grid = match parsed.sizes[..] {
+        [a, b, c] | [1, a, b, c] => [a, b, c],
+        _ => return Ok(None),
+    };
+    let lead = parsed.sizes.len() - 3;
+    let overflow = || Error::msg(format!("sizes {:?} overflow", parsed.sizes));
+    let n = parsed.count().ok_or_else(overflow)?;
+    let tsz = parsed.scalar.size();
+    let nbytes = n.checked_mul(tsz).ok_or_else(overflow)?;
+    let file_len = r.get_ref().metadata().map(|m| m.len()).unwrap_or(u64::MAX);
+    if parsed.skips.byte == -1 {
+        seek_tail(&mut r, enc, file_len, nbytes)?;
+    } else {
+        skip_file(&mut r, &parsed.skips, file_len)?;
+    }
+    let start = {
+        use std::io::Seek;
+        r.stream_position()
+            .map_err(|e| Error::io(path, "can't read", e))?
+    };
+    if enc == Encoding::Raw && file_len.saturating_sub(start) < nbytes as u64 {
+        return Err(Error::msg(format!(
+            "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
+            parsed.sizes,
+            parsed.scalar,
+            file_len.saturating_sub(start)
+        )));
+    }
+    let b = pick(grid)?;
+    if (0..3).any(|a| b.lo[a] >= b.hi[a] || b.hi[a] > grid[a]) {
+        return Err(Error::msg(format!(
+            "region {:?}..{:?} is empty or leaves the grid {grid:?}",
+            b.lo, b.hi
+        )));
+    }
+    let bs = b.sizes();
+    let count = b.voxels();
+    check_memory(
+        count.saturating_mul(tsz),
+        &format!("a region of {bs:?} of {}", parsed.scalar),
+    )?;
+    let mut src = match enc {
+        Encoding::Gzip => Source::Coded(crate::codec::gunzip(r).map_err(|e| e.with_path(path))?),
+        Encoding::Bzip2 => Source::Coded(crate::codec::bunzip2(r).map_err(|e| e.with_path(path))?),
+        _ => Source::Raw(r),
+    };
+    let mut data = from_f64(parsed.scalar, &[]);
+    reserve_all(&mut data, count)?;
+    let failed = |e: std::io::Error| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => Error::msg(format!(
+            "data is truncated: sizes {:?} of {} need {nbytes} bytes",
+            parsed.sizes, parsed.scalar
+        )),
+        _ if enc == Encoding::Raw => Error::io(path, "can't read", e),
+        _ => Error::msg(format!("{} data can't be decompressed: {e}", enc.as_str())),
+    };
+    let mut row = vec![0u8; bs[0] * tsz];
+    let mut at = 0usize;
+    for k in b.lo[2]..b.hi[2] {
+        for j in b.lo[1]..b.hi[1] {
+            // Byte offsets fit: the whole array's size was checked above.
+            let off = ((k * grid[1] + j) * grid[0] + b.lo[0]) * tsz;
+            src.skip((off - at) as u64).map_err(failed)?;
+            src.read_exact(&mut row).map_err(failed)?;
+            append(&mut data, &row, parsed.endian, count)?;
+            at = off + row.len();
+        }
+    }
+    parsed.header.sizes = parsed.sizes[..lead].iter().copied().chain(bs).collect();
+    let Parsed { header, .. } = parsed;
+    Ok(Some((Nrrd { header, data }, grid, b)))
 }
 
 /// Reads the data [`read_streaming`] reads from `r` (positioned at the data's start,
