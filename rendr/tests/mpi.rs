@@ -303,6 +303,35 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     assert!(!dir.join("x.png").exists());
     let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
     assert!(left.is_empty(), "output left behind: {left:?}");
+    // A brick that cannot be read: a gzip volume cut short, whose lower half (rank 0's
+    // brick, split along z) is intact and whose upper half is missing.
+    let sdg = Command::new(RENDR)
+        .args(["sdg", "-w", "12", "-sz", "20", "20", "40", "-o", "cut.nrrd"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        sdg.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sdg.stderr)
+    );
+    let whole = std::fs::read(dir.join("cut.nrrd")).unwrap();
+    std::fs::write(dir.join("cut.nrrd"), &whole[..whole.len() * 4 / 5]).unwrap();
+    let (_, _, mut syn) = go_scenes().remove(2);
+    syn[1] = "cut.nrrd".into();
+    let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into(), "go".into()];
+    m.extend(syn);
+    m.extend(["-o".to_string(), "x.png".to_string()]);
+    let out = mpirun(&dir, &m);
+    assert!(!out.status.success(), "a truncated brick was rendered");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("rendr go: rank 1 of 2: cut.nrrd") && err.contains("truncated"),
+        "{err}"
+    );
+    assert!(!err.contains("rank 0 of 2"), "rank 0 read its brick: {err}");
+    assert!(!dir.join("x.png").exists());
+    std::fs::remove_file(dir.join("cut.nrrd")).unwrap();
     // The median and -db cannot be split: refused with a message, nothing written.
     for (extra, msg) in [
         (&["-b", "median"][..], "median"),

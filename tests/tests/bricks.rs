@@ -137,13 +137,21 @@ fn bricks_reproduce_the_whole_render_of_a_synthetic_volume() {
             .collect(),
     )
     .unwrap();
-    let cases: [(Probe, Blend); 6] = [
+    // Convolved probes, probes counted everywhere (in, positions), several channels
+    // (the gradient vector, the Hessian) and the f64 statistics.
+    let cases: [(Probe, Blend); 12] = [
         (Probe::Value, Blend::Max),
         (Probe::GradMag, Blend::Max),
         (Probe::Value, Blend::Min),
         (Probe::Value, Blend::Sum),
         (Probe::Value, Blend::Mean),
         (Probe::Rgba, Blend::Over),
+        (Probe::Inside, Blend::Sum),
+        (Probe::PosWorld, Blend::Max),
+        (Probe::GradVec, Blend::Mean),
+        (Probe::Hess, Blend::Min),
+        (Probe::Value, Blend::Variance),
+        (Probe::K1, Blend::L2),
     ];
     for cam in cams {
         for kernel in [KernelName::Tent, KernelName::Bspln3, KernelName::Bspln2] {
