@@ -58,6 +58,20 @@ fn mpirun(dir: &Path, args: &[String]) -> Output {
     child.wait_with_output().unwrap()
 }
 
+/// `mpirun` arguments that start one rank per argument list (MPMD: `-np 1 rendr ARGS :
+/// -np 1 rendr ARGS ...`), rank i running `ranks[i]`.
+fn mpmd(ranks: &[&Vec<String>]) -> Vec<String> {
+    let mut args: Vec<String> = Vec::new();
+    for (i, a) in ranks.iter().enumerate() {
+        if i > 0 {
+            args.push(":".into());
+        }
+        args.extend(["-np".to_string(), "1".to_string(), RENDR.to_string()]);
+        args.extend(a.iter().cloned());
+    }
+    args
+}
+
 fn turn_args(prefix: &str) -> Vec<String> {
     let mut v: Vec<String> = ["turn", "-i"].map(String::from).to_vec();
     v.push(data("itk-t1-head.nrrd").display().to_string());
@@ -123,15 +137,7 @@ fn a_failing_rank_stops_the_job_with_its_message_and_no_output() {
     let good = turn_args("bad");
     let mut bad = good.clone();
     bad.extend(["-lit".to_string(), "/nonexistent/lights.txt".to_string()]);
-    let mut args: Vec<String> = Vec::new();
-    for (i, a) in [&good, &bad, &good].iter().enumerate() {
-        if i > 0 {
-            args.push(":".into());
-        }
-        args.extend(["-np".to_string(), "1".to_string(), RENDR.to_string()]);
-        args.extend(a.iter().cloned());
-    }
-    let out = mpirun(&dir, &args);
+    let out = mpirun(&dir, &mpmd(&[&good, &bad, &good]));
     assert!(!out.status.success(), "the job succeeded");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -285,15 +291,7 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     go.extend(["-o".to_string(), "x.png".to_string()]);
     let mut bad = go.clone();
     bad.extend(["-lut".to_string(), "/nonexistent/lut.nrrd".to_string()]);
-    let mut args: Vec<String> = Vec::new();
-    for (i, a) in [&go, &go, &bad].iter().enumerate() {
-        if i > 0 {
-            args.push(":".into());
-        }
-        args.extend(["-np".to_string(), "1".to_string(), RENDR.to_string()]);
-        args.extend(a.iter().cloned());
-    }
-    let out = mpirun(&dir, &args);
+    let out = mpirun(&dir, &mpmd(&[&go, &go, &bad]));
     assert!(!out.status.success(), "the job succeeded");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

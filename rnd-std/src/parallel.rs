@@ -171,44 +171,15 @@ pub fn render_with(
             } else {
                 None
             };
-            let done = AtomicUsize::new(0);
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
-            // Bands of rows are handed out from one queue; with one thread the calling
-            // thread drains it alone.
-            let queue = Mutex::new(out.chunks_mut(w * ch * BAND).enumerate());
-            let work = || loop {
-                if control.cancelled() {
-                    break;
-                }
-                let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                let Some((b, chunk)) = next else { break };
-                let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
-                let n = rows.len();
-                spec.render_rows(
-                    vol.into(),
-                    K::NAME,
-                    skip.as_ref(),
-                    rows,
-                    chunk,
-                    clock_ref.map(|c| c as &dyn Fn() -> f64),
-                );
-                let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
-                if let Some(f) = control.progress {
-                    f(Progress { rows_done, rows: h });
-                }
-            };
-            if self.threads <= 1 {
-                work();
-            } else {
-                std::thread::scope(|s| {
-                    for _ in 0..self.threads {
-                        s.spawn(work);
-                    }
-                });
-            }
-            (done.load(Ordering::Relaxed) == h).then_some(out)
+            let done = bands(&mut out, w * ch, h, self.threads, control, |rows, chunk| {
+                let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
+                spec.render_rows(vol.into(), K::NAME, skip.as_ref(), rows, chunk, clock);
+                true
+            });
+            (done == h).then_some(out)
         }
     }
     if control.cancelled() {
@@ -274,45 +245,21 @@ pub fn render_part_with(
             let (spec, control, own) = (self.spec, self.control, &self.own);
             let [w, h] = spec.size().map(|x| x as usize);
             let mut out = self.out;
-            let done = AtomicUsize::new(0);
             let failed: Mutex<Option<rnd_core::Error>> = Mutex::new(None);
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
-            let queue = Mutex::new(out.chunks_mut(w * BAND).enumerate());
-            let work = || loop {
-                if control.cancelled() {
-                    break;
-                }
-                let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                let Some((b, chunk)) = next else { break };
-                let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
-                let n = rows.len();
+            let done = bands(&mut out, w, h, self.threads, control, |rows, chunk| {
                 let r = spec.render_part_rows(vol.into(), K::NAME, skip.as_ref(), own, rows, chunk);
-                if let Err(e) = r {
-                    if let Ok(mut f) = failed.lock() {
-                        f.get_or_insert(e);
-                    }
-                    break;
+                if let (Err(e), Ok(mut f)) = (&r, failed.lock()) {
+                    f.get_or_insert_with(|| e.clone());
                 }
-                let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
-                if let Some(f) = control.progress {
-                    f(Progress { rows_done, rows: h });
-                }
-            };
-            if self.threads <= 1 {
-                work();
-            } else {
-                std::thread::scope(|s| {
-                    for _ in 0..self.threads {
-                        s.spawn(work);
-                    }
-                });
-            }
+                r.is_ok()
+            });
             if let Some(e) = failed.into_inner().ok().flatten() {
                 return Err(e.into());
             }
-            if done.load(Ordering::Relaxed) == h {
+            if done == h {
                 Ok(out)
             } else {
                 Err(cancelled())
@@ -333,6 +280,48 @@ pub fn render_part_with(
             out,
         },
     )
+}
+
+/// Runs `band` over the bands of [`BAND`] rows of an image of `h` rows whose `out` holds
+/// `per_row` items a row, handed out from one queue to `threads` threads (with one, the
+/// calling thread drains it alone), reporting progress to `control`; stops when it is
+/// cancelled or a band returns false. Returns the rows done.
+fn bands<T: Send>(
+    out: &mut [T],
+    per_row: usize,
+    h: usize,
+    threads: usize,
+    control: &Control<'_>,
+    band: impl Fn(core::ops::Range<u32>, &mut [T]) -> bool + Sync,
+) -> usize {
+    let done = AtomicUsize::new(0);
+    let queue = Mutex::new(out.chunks_mut(per_row.max(1) * BAND).enumerate());
+    let work = || loop {
+        if control.cancelled() {
+            break;
+        }
+        let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+        let Some((b, chunk)) = next else { break };
+        let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
+        let n = rows.len();
+        if !band(rows, chunk) {
+            break;
+        }
+        let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
+        if let Some(f) = control.progress {
+            f(Progress { rows_done, rows: h });
+        }
+    };
+    if threads <= 1 {
+        work();
+    } else {
+        std::thread::scope(|s| {
+            for _ in 0..threads {
+                s.spawn(work);
+            }
+        });
+    }
+    done.load(Ordering::Relaxed)
 }
 
 fn cancelled() -> Error {

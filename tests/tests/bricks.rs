@@ -67,8 +67,15 @@ fn bricked(
     img
 }
 
-fn close(a: &[f32], b: &[f32], what: &str) {
+/// `a` and `b` the same bits (`exact`), or within 1e-6 of the larger magnitude (at
+/// least 1).
+fn compare(a: &[f32], b: &[f32], exact: bool, what: &str) {
     assert_eq!(a.len(), b.len());
+    if exact {
+        let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{what}: not bit-identical");
+        return;
+    }
     let mut worst = 0.0f32;
     for (i, (&x, &y)) in a.iter().zip(b).enumerate() {
         let tol = 1e-6 * x.abs().max(y.abs()).max(1.0);
@@ -163,14 +170,8 @@ fn bricks_reproduce_the_whole_render_of_a_synthetic_volume() {
                     for n in 1..=5 {
                         let what = format!("{probe} {blend} {kernel} ref {reference} n {n}");
                         let b = bricked(&spec, &whole, kernel, n, 1 + n % 2);
-                        if matches!(blend, Blend::Max | Blend::Min) {
-                            assert!(
-                                one.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
-                                "{what}: not bit-identical"
-                            );
-                        } else {
-                            close(&one, &b, &what);
-                        }
+                        let exact = matches!(blend, Blend::Max | Blend::Min);
+                        compare(&one, &b, exact, &what);
                     }
                 }
             }
@@ -217,14 +218,7 @@ fn bricks_reproduce_the_bundled_head() {
             for n in 2..=4 {
                 let b = bricked(&spec, &head, KernelName::Bspln3, n, 2);
                 let what = format!("head {} ref {reference} n {n}", spec.params().blend);
-                if exact {
-                    assert!(
-                        one.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
-                        "{what}: not bit-identical"
-                    );
-                } else {
-                    close(&one, &b, &what);
-                }
+                compare(&one, &b, exact, &what);
             }
         }
     }

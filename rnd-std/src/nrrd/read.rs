@@ -337,6 +337,37 @@ impl Source {
     }
 }
 
+/// Moves `r` past the header's skips to the data's start; raw data must fit in the rest
+/// of the file (`file_len` bytes in all) for the `nbytes` the header asks for.
+fn to_data(
+    r: &mut std::io::BufReader<std::fs::File>,
+    parsed: &Parsed,
+    file_len: u64,
+    nbytes: usize,
+    path: &Path,
+) -> Result<()> {
+    let enc = parsed.encoding;
+    if parsed.skips.byte == -1 {
+        seek_tail(r, enc, file_len, nbytes)?;
+    } else {
+        skip_file(r, &parsed.skips, file_len)?;
+    }
+    let start = {
+        use std::io::Seek;
+        r.stream_position()
+            .map_err(|e| Error::io(path, "can't read", e))?
+    };
+    if enc == Encoding::Raw && file_len.saturating_sub(start) < nbytes as u64 {
+        return Err(Error::msg(format!(
+            "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
+            parsed.sizes,
+            parsed.scalar,
+            file_len.saturating_sub(start)
+        )));
+    }
+    Ok(())
+}
+
 fn stream_region(
     mut r: std::io::BufReader<std::fs::File>,
     mut parsed: Parsed,
@@ -354,24 +385,7 @@ fn stream_region(
     let tsz = parsed.scalar.size();
     let nbytes = n.checked_mul(tsz).ok_or_else(overflow)?;
     let file_len = r.get_ref().metadata().map(|m| m.len()).unwrap_or(u64::MAX);
-    if parsed.skips.byte == -1 {
-        seek_tail(&mut r, enc, file_len, nbytes)?;
-    } else {
-        skip_file(&mut r, &parsed.skips, file_len)?;
-    }
-    let start = {
-        use std::io::Seek;
-        r.stream_position()
-            .map_err(|e| Error::io(path, "can't read", e))?
-    };
-    if enc == Encoding::Raw && file_len.saturating_sub(start) < nbytes as u64 {
-        return Err(Error::msg(format!(
-            "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
-            parsed.sizes,
-            parsed.scalar,
-            file_len.saturating_sub(start)
-        )));
-    }
+    to_data(&mut r, &parsed, file_len, nbytes, path)?;
     let b = pick(grid)?;
     if (0..3).any(|a| b.lo[a] >= b.hi[a] || b.hi[a] > grid[a]) {
         return Err(Error::msg(format!(
@@ -429,24 +443,7 @@ fn stream_data(
     let file_len = r.get_ref().metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let (n, nbytes) = data_size(&parsed)?;
     let tsz = parsed.scalar.size();
-    if parsed.skips.byte == -1 {
-        seek_tail(&mut r, enc, file_len, nbytes)?;
-    } else {
-        skip_file(&mut r, &parsed.skips, file_len)?;
-    }
-    let start = {
-        use std::io::Seek;
-        r.stream_position()
-            .map_err(|e| Error::io(path, "can't read", e))?
-    };
-    if enc == Encoding::Raw && file_len.saturating_sub(start) < nbytes as u64 {
-        return Err(Error::msg(format!(
-            "data is truncated: sizes {:?} of {} need {nbytes} bytes, only {} present",
-            parsed.sizes,
-            parsed.scalar,
-            file_len.saturating_sub(start)
-        )));
-    }
+    to_data(&mut r, &parsed, file_len, nbytes, path)?;
     #[cfg(unix)]
     if enc == Encoding::Raw && threads > 1 && nbytes >= PARALLEL_MIN {
         use std::io::Seek;
