@@ -2,8 +2,9 @@
 //! `mpirun -np N rendr turn` deals frames to ranks and writes exactly the frames one
 //! process writes; a rank that fails stops the whole job with its message, without a
 //! hang or any output; `mpirun -np N rendr go` renders N bricks and composites them:
-//! `max` bit-identical to one process, `over`, `sum` and `mean` within 1e-6. Skipped
-//! without `mpirun` unless `RENDR_REQUIRE_MPI=1` (CI).
+//! `max` and `median` bit-identical to one process, `over`, `sum` and `mean` within
+//! 1e-6, the time channel filled. Skipped without `mpirun` unless `RENDR_REQUIRE_MPI=1`
+//! (CI).
 #![cfg(feature = "mpi")]
 
 use std::path::{Path, PathBuf};
@@ -192,6 +193,7 @@ fn go_scenes() -> Vec<(&'static str, bool, Vec<String>)> {
         ("syn max v ortho", true, "ctmr", "v", "max", true),
         ("syn sum", false, "tent", "v", "sum", false),
         ("syn mean ref false", false, "bspln2", "v", "mean", true),
+        ("syn median", true, "tent", "gv", "median", false),
     ] {
         let mut v = s(&["-i", "syn.nrrd", "-k", k, "-p", p, "-b", b, "-s", "0.05"]);
         v.extend(syn_cam.clone());
@@ -280,6 +282,32 @@ fn go_under_mpi_renders_in_bricks_the_image_of_one_process() {
 }
 
 #[test]
+fn go_under_mpi_fills_the_time_channel() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tmp("time");
+    let (_, _, mip) = go_scenes().remove(1);
+    let mut m: Vec<String> = vec!["-np".into(), "3".into(), RENDR.into(), "go".into()];
+    m.extend(mip);
+    m.extend(["-t".to_string(), "-o".into(), "t.nrrd".into()]);
+    let out = mpirun(&dir, &m);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Two channels: the MIP and the milliseconds every rank spent on the pixel's ray.
+    let n = rnd_std::nrrd::read(&dir.join("t.nrrd")).unwrap();
+    assert_eq!(n.header.sizes[0], 2);
+    let f = floats(&dir.join("t.nrrd"));
+    let times: Vec<f32> = f.iter().skip(1).step_by(2).copied().collect();
+    assert!(times.iter().all(|t| t.is_finite() && *t >= 0.0));
+    assert!(times.iter().any(|&t| t > 0.0), "no time measured");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     if !have_mpirun() {
         return;
@@ -330,19 +358,14 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     assert!(!err.contains("rank 0 of 2"), "rank 0 read its brick: {err}");
     assert!(!dir.join("x.png").exists());
     std::fs::remove_file(dir.join("cut.nrrd")).unwrap();
-    // The median and -db cannot be split: refused with a message, nothing written.
-    for (extra, msg) in [
-        (&["-b", "median"][..], "median"),
-        (&["-db", "3", "3"], "-db"),
-    ] {
-        let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into()];
-        m.extend(go.iter().cloned());
-        m.extend(extra.iter().map(|x| x.to_string()));
-        let out = mpirun(&dir, &m);
-        assert!(!out.status.success(), "{extra:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains(msg), "{extra:?}: {err}");
-        assert!(!dir.join("x.png").exists());
-    }
+    // -db traces one ray in one process: refused with a message, nothing written.
+    let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into()];
+    m.extend(go.iter().cloned());
+    m.extend(["-db", "3", "3"].map(String::from));
+    let out = mpirun(&dir, &m);
+    assert!(!out.status.success(), "-db under mpirun");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("-db traces a ray in one process"), "{err}");
+    assert!(!dir.join("x.png").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

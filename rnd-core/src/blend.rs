@@ -386,6 +386,12 @@ impl Kept {
     pub fn push_scalars(&mut self, xs: &[f32]) {
         self.chans[0].extend_from_slice(xs);
     }
+    /// Keeps samples `xs` of channel `c` (e.g. those another process kept).
+    pub fn extend(&mut self, c: usize, xs: &[f32]) {
+        if let Some(ch) = self.chans.get_mut(c) {
+            ch.extend_from_slice(xs);
+        }
+    }
     /// The samples kept of channel `c`.
     pub fn channel(&self, c: usize) -> &[f32] {
         self.chans.get(c).map_or(&[], |v| v.as_slice())

@@ -155,6 +155,8 @@ pub struct Partial {
     pub first: u32,
     /// One past the last sample of the stretch.
     pub end: u32,
+    /// Milliseconds spent on the stretch (the time channel, `-t`; 0 when not timed).
+    pub time: f32,
 }
 
 impl Partial {
@@ -165,6 +167,7 @@ impl Partial {
             transp: 1.0,
             first: 0,
             end: 0,
+            time: 0.0,
         }
     }
 
@@ -178,9 +181,12 @@ impl Partial {
     /// transparency` as the reference arithmetic does, on the transparency). An empty
     /// partial changes nothing.
     ///
+    /// Under `median` only the count is combined: the pixel needs the samples of every
+    /// stretch ([`Partial::finish`]).
+    ///
     /// # Errors
-    /// [`ErrorKind::Render`] when the blends or channel counts differ, the stretches
-    /// overlap, or the blend is `median` (which needs every sample).
+    /// [`ErrorKind::Render`] when the blends or channel counts differ or the stretches
+    /// overlap.
     pub fn composite(&self, other: &Partial, by_transparency: bool) -> Result<Partial> {
         if (self.acc.blend, self.acc.len) != (other.acc.blend, other.acc.len) {
             return Err(Error::new(
@@ -212,17 +218,13 @@ impl Partial {
         };
         let mut out = *f;
         out.end = b.end;
+        out.time = f.time + b.time;
         let (fa, ba) = (&f.acc, &b.acc);
         let len = fa.len.min(crate::blend::MAX_CHANNELS);
         let acc = &mut out.acc;
         acc.count = fa.count.saturating_add(ba.count);
         match fa.blend {
-            Blend::Median => {
-                return Err(Error::new(
-                    ErrorKind::Render,
-                    "the median cannot be composited from partials",
-                ))
-            }
+            Blend::Median => {}
             Blend::Max | Blend::Min if fa.count == 0 => acc.acc = ba.acc,
             Blend::Max | Blend::Min if ba.count == 0 => {}
             Blend::Max => {
@@ -287,18 +289,27 @@ impl Partial {
         Ok(acc)
     }
 
-    /// Bytes [`Partial::encode`] writes for a partial of `blend` with `len` channels.
+    /// Bytes [`Partial::encode`] writes for a partial of `blend` with `len` channels (and
+    /// under `median`, 4 more for each channel of each sample).
     pub fn record_len(blend: Blend, len: usize) -> usize {
         let len = len.min(crate::blend::MAX_CHANNELS);
-        16 + 4 * len + if squares(blend) { 16 * len } else { 0 }
+        20 + 4 * len + if squares(blend) { 16 * len } else { 0 }
     }
 
-    /// Appends the partial to `out` in [`Partial::record_len`] bytes (little-endian:
-    /// first, end, count, transparency, the accumulated channels and, for `l2`,
-    /// `variance` and `sd`, their f64 sums), for sending to another process.
-    pub fn encode(&self, out: &mut Vec<u8>) {
+    /// Appends the partial to `out` (little-endian: first, end, count, transparency,
+    /// time, the accumulated channels, for `l2`, `variance` and `sd` their f64 sums, and
+    /// under `median` the `count · len` samples, channel by channel), for sending to
+    /// another process.
+    pub fn encode(&self, samples: &[f32], out: &mut Vec<u8>) {
         let len = self.acc.len.min(crate::blend::MAX_CHANNELS);
-        for w in [self.first, self.end, self.acc.count, self.transp.to_bits()] {
+        let words = [
+            self.first,
+            self.end,
+            self.acc.count,
+            self.transp.to_bits(),
+            self.time.to_bits(),
+        ];
+        for w in words {
             out.extend_from_slice(&w.to_le_bytes());
         }
         for c in 0..len {
@@ -311,23 +322,36 @@ impl Partial {
                 }
             }
         }
+        if self.acc.blend.keeps_samples() {
+            let n = self.acc.count as usize * len;
+            for x in samples.iter().take(n) {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            // (A list shorter than the count is padded, so the record stays readable.)
+            for _ in samples.len()..n {
+                out.extend_from_slice(&f32::NAN.to_le_bytes());
+            }
+        }
     }
 
     /// The partial of `blend` with `len` channels at the start of `b` (as
-    /// [`Partial::encode`] wrote it); `None` when `b` is too short.
-    pub fn decode(b: &[u8], blend: Blend, len: usize) -> Option<Partial> {
+    /// [`Partial::encode`] wrote it), its samples (under `median`) and the bytes it took;
+    /// `None` when `b` is too short.
+    pub fn decode(b: &[u8], blend: Blend, len: usize) -> Option<(Partial, Vec<f32>, usize)> {
         let n = Partial::record_len(blend, len);
+        let all = b;
         let b = b.get(..n)?;
         let word = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
         let mut p = Partial::empty(blend, len);
         (p.first, p.end, p.acc.count) = (word(0), word(4), word(8));
         p.transp = f32::from_bits(word(12));
+        p.time = f32::from_bits(word(16));
         let len = len.min(crate::blend::MAX_CHANNELS);
         for c in 0..len {
-            p.acc.acc[c] = f32::from_bits(word(16 + 4 * c));
+            p.acc.acc[c] = f32::from_bits(word(20 + 4 * c));
         }
         if squares(blend) {
-            let at = 16 + 4 * len;
+            let at = 20 + 4 * len;
             for c in 0..len {
                 for (h, x) in p.acc.sums[c].iter_mut().enumerate() {
                     let i = at + 16 * c + 8 * h;
@@ -337,13 +361,38 @@ impl Partial {
                 }
             }
         }
-        Some(p)
+        let mut samples = Vec::new();
+        let mut used = n;
+        if blend.keeps_samples() {
+            let k = (p.acc.count as usize).checked_mul(len)?;
+            let bytes = all.get(n..n.checked_add(k.checked_mul(4)?)?)?;
+            samples = bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            used += bytes.len();
+        }
+        Some((p, samples, used))
     }
 
     /// The pixel: the blend's result into `out[..len]`, `outside` when nothing was
-    /// blended (see [`Accum::finish`]).
-    pub fn finish(&self, outside: f32, out: &mut [f32]) {
-        self.acc.finish(outside, None, out);
+    /// blended (see [`Accum::finish`]). Under `median`, `samples` holds the samples of
+    /// every stretch of the ray (each stretch's channel by channel, as
+    /// [`crate::render::RenderSpec::render_part_rows`] gives them), in any order of
+    /// stretches.
+    pub fn finish(&self, outside: f32, samples: &[&[f32]], out: &mut [f32]) {
+        if !self.acc.blend.keeps_samples() {
+            return self.acc.finish(outside, None, out);
+        }
+        let len = self.acc.len.min(crate::blend::MAX_CHANNELS);
+        let mut kept = crate::blend::Kept::new();
+        for s in samples {
+            let n = s.len() / len.max(1);
+            for c in 0..len {
+                kept.extend(c, &s[c * n..(c + 1) * n]);
+            }
+        }
+        self.acc.finish(outside, Some(&mut kept), out);
     }
 }
 
@@ -425,18 +474,26 @@ mod tests {
         for blend in Blend::ALL {
             for len in [1, 4, 9] {
                 let mut p = Partial::empty(blend, len);
-                (p.first, p.end, p.acc.count, p.transp) = (3, 17, 11, 0.25);
+                (p.first, p.end, p.acc.count, p.transp, p.time) = (3, 17, 11, 0.25, 1.5);
                 for c in 0..len {
                     p.acc.acc[c] = c as f32 * 1.5 - 2.0;
                     if squares(blend) {
                         p.acc.sums[c] = [c as f64 / 3.0, -1e300];
                     }
                 }
+                let samples: Vec<f32> = (0..11 * len).map(|i| i as f32 * 0.5).collect();
                 let mut b = Vec::new();
-                p.encode(&mut b);
-                assert_eq!(b.len(), Partial::record_len(blend, len));
-                assert_eq!(Partial::decode(&b, blend, len), Some(p), "{blend} {len}");
-                assert_eq!(Partial::decode(&b[1..], blend, len), None);
+                p.encode(&samples, &mut b);
+                let median = blend.keeps_samples();
+                let n = Partial::record_len(blend, len) + if median { 44 * len } else { 0 };
+                assert_eq!(b.len(), n);
+                let kept = if median { samples.clone() } else { Vec::new() };
+                assert_eq!(
+                    Partial::decode(&b, blend, len),
+                    Some((p, kept, n)),
+                    "{blend} {len}"
+                );
+                assert_eq!(Partial::decode(&b[..n - 1], blend, len), None);
             }
         }
     }

@@ -79,11 +79,12 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     pub imprecise: Cell<bool>,
 }
 
-/// Where a ray's result goes: the pixel, or (for a brick) the partial blend.
+/// Where a ray's result goes: the pixel, or (for a brick) the partial blend and, under
+/// `median`, the samples blended (channel by channel).
 #[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
 pub(crate) enum Out<'o> {
     Pixel(&'o mut [f32]),
-    Part(&'o mut Partial),
+    Part(&'o mut Partial, &'o mut alloc::vec::Vec<f32>),
 }
 
 /// Rays without a skip after which bounds are looked at only on every 16th ray.
@@ -359,12 +360,19 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Out::Pixel(px) => st
                 .acc
                 .finish(self.spec.params.outside, st.kept.as_mut(), px),
-            Out::Part(part) => {
+            Out::Part(part, samples) => {
                 **part = Partial {
                     acc: st.acc,
                     transp: st.transp,
                     first: st.win.0,
                     end: st.win.1,
+                    time: 0.0,
+                };
+                samples.clear();
+                if let Some(kept) = &st.kept {
+                    for c in 0..st.acc.len {
+                        samples.extend_from_slice(kept.channel(c));
+                    }
                 }
             }
         }

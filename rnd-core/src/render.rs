@@ -657,42 +657,23 @@ impl<'a> RenderSpec<'a> {
         dispatch(vol, kernel, task);
     }
 
-    /// Whether this render can be split into bricks (sort-last, [`crate::brick`]): not
-    /// under `median` (which needs all of a ray's samples at once) nor with the time
-    /// channel (a time per pixel, not per stretch).
-    ///
-    /// # Errors
-    /// [`ErrorKind::Render`] naming what cannot be split.
-    pub fn check_bricked(&self) -> Result<()> {
-        if self.params.blend.keeps_samples() {
-            return Err(Error::about(
-                ErrorKind::Render,
-                Param::Blend,
-                "the median cannot be rendered in bricks (it needs every sample of a ray)",
-            ));
-        }
-        if self.params.time {
-            return Err(Error::new(
-                ErrorKind::Render,
-                "the time channel cannot be rendered in bricks (its times are per pixel)",
-            ));
-        }
-        Ok(())
-    }
-
-    /// Renders, for each pixel of image rows `rows`, the [`Partial`](crate::brick::Partial) of the stretch of
-    /// its ray that `own` gives (one brick of a sort-last render, see [`crate::brick`]),
-    /// from `vol`, the brick's [`Volume::region`] with the ghost layers of
-    /// [`crate::brick::ghosts`], into `out` (one per pixel, rows consecutive). `skip`
-    /// as for [`RenderSpec::render_rows`] (a grid made from `vol`).
+    /// Renders, for each pixel of image rows `rows`, the [`Partial`](crate::brick::Partial)
+    /// of the stretch of its ray that `own` gives (one brick of a sort-last render, see
+    /// [`crate::brick`]), from `vol`, the brick's [`Volume::region`] with the ghost layers
+    /// of [`crate::brick::ghosts`], into `out` (one per pixel, rows consecutive); under
+    /// `median` also the samples blended into `samples` (one list per pixel, channel by
+    /// channel; `samples` may be empty otherwise). `skip` as for
+    /// [`RenderSpec::render_rows`] (a grid made from `vol`); `clock`, when given, returns
+    /// milliseconds and times each pixel's stretch (`Partial::time`).
     ///
     /// Not generic, as [`RenderSpec::cast`].
     ///
     /// # Errors
-    /// As [`RenderSpec::check_bricked`]; [`ErrorKind::Volume`] when a ray's computed
-    /// positions could lie half a voxel or more from its exact line (coordinates too
-    /// large for the ghost layers), or `out` has the wrong length.
+    /// [`ErrorKind::Volume`] when a ray's computed positions could lie half a voxel or
+    /// more from its exact line (coordinates too large for the ghost layers), or `out` or
+    /// `samples` has the wrong length.
     #[cfg(not(test))] // as for `cast`
+    #[allow(clippy::too_many_arguments)]
     pub fn render_part_rows(
         &self,
         vol: AnyVolume<'_>,
@@ -701,15 +682,19 @@ impl<'a> RenderSpec<'a> {
         own: &Own,
         rows: core::ops::Range<u32>,
         out: &mut [crate::brick::Partial],
+        samples: &mut [Vec<f32>],
+        clock: Option<&dyn Fn() -> f64>,
     ) -> Result<()> {
-        struct Rows<'r, 's, 'a> {
+        struct Rows<'r, 's, 'a, 'c> {
             spec: &'s RenderSpec<'a>,
             skip: Option<&'s SkipGrid>,
             own: Own,
             rows: core::ops::Range<u32>,
             out: &'r mut [crate::brick::Partial],
+            samples: &'r mut [Vec<f32>],
+            clock: Option<&'c dyn Fn() -> f64>,
         }
-        impl ConvoTask for Rows<'_, '_, '_> {
+        impl ConvoTask for Rows<'_, '_, '_, '_> {
             type Output = bool;
             fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> bool {
                 let Rows {
@@ -718,6 +703,8 @@ impl<'a> RenderSpec<'a> {
                     own,
                     rows,
                     out,
+                    samples,
+                    clock,
                 } = self;
                 let w = spec.size()[0] as usize;
                 let mode = if spec.params.fast_loop {
@@ -725,24 +712,32 @@ impl<'a> RenderSpec<'a> {
                 } else {
                     Loop::OneSample
                 };
+                let mut none = Vec::new();
                 spec.with_march::<V, K, S, bool>(vol, skip, Some(own), |m| {
                     for (r, vi) in rows.enumerate() {
                         for hi in 0..w {
-                            let part = &mut out[r * w + hi];
-                            m.cast(hi as u32, vi, Out::Part(part), mode, None);
+                            let i = r * w + hi;
+                            let kept = samples.get_mut(i).unwrap_or(&mut none);
+                            let t0 = clock.map(|c| c());
+                            m.cast(hi as u32, vi, Out::Part(&mut out[i], kept), mode, None);
+                            if let (Some(c), Some(t0)) = (clock, t0) {
+                                out[i].time = (c() - t0) as f32;
+                            }
                         }
                     }
                     !m.imprecise()
                 })
             }
         }
-        self.check_bricked()?;
-        if out.len() != rows.len() * self.size()[0] as usize {
+        let n = rows.len() * self.size()[0] as usize;
+        let median = self.params.blend.keeps_samples();
+        if out.len() != n || (median && samples.len() != n) {
             return Err(Error::new(
                 ErrorKind::Volume,
                 alloc::format!(
-                    "{} partials for {} rows of {} pixels",
+                    "{} partials and {} sample lists for {} rows of {} pixels",
                     out.len(),
+                    samples.len(),
                     rows.len(),
                     self.size()[0]
                 ),
@@ -754,6 +749,8 @@ impl<'a> RenderSpec<'a> {
             own: *own,
             rows,
             out,
+            samples,
+            clock,
         };
         if dispatch(vol, kernel, task) {
             Ok(())

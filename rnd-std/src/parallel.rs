@@ -198,11 +198,22 @@ pub fn render_with(
     .ok_or_else(cancelled)
 }
 
+/// One brick's part of a sort-last render: [`render_part_with`]'s partials, one per
+/// pixel, and under `median` the samples each blended (one list per pixel, channel by
+/// channel; empty otherwise).
+#[derive(Debug, Clone, Default)]
+pub struct Parts {
+    /// The partial blend of each pixel's stretch, rows consecutive.
+    pub partials: Vec<Partial>,
+    /// Under `median`: each pixel's samples.
+    pub samples: Vec<Vec<f32>>,
+}
+
 /// One brick's part of a sort-last render (see [`rnd_core::brick`]): for every pixel the
 /// [`Partial`] of the stretch of its ray that `own` gives, from `vol`, the brick's
 /// [`Volume::region`] with its ghost layers, on `threads` threads (the same partials for
 /// every thread count). Empty space is skipped as in [`render`], with a grid built from
-/// the region.
+/// the region; with the spec's time channel each partial carries its stretch's time.
 ///
 /// # Errors
 /// As [`render_with`], and as [`RenderSpec::render_part_rows`].
@@ -213,54 +224,88 @@ pub fn render_part_with(
     own: &Own,
     threads: usize,
     control: &Control<'_>,
-) -> crate::Result<Vec<Partial>> {
+) -> crate::Result<Parts> {
     spec.check_volume(vol.grid())?;
-    spec.check_bricked()?;
     let [w, h] = spec.size();
     let (w, h) = (w as usize, h as usize);
     let len = w.saturating_mul(h);
     let what = format!("the partials of a {w} x {h} image");
-    let bytes = (len as u64).saturating_mul(std::mem::size_of::<Partial>() as u64);
+    let median = spec.params().blend.keeps_samples();
+    let per_pixel = std::mem::size_of::<Partial>() + if median { 24 } else { 0 };
+    let bytes = (len as u64).saturating_mul(per_pixel as u64);
     crate::check_memory(bytes, &what).map_err(|e| Error {
         param: Some(Param::ImageSize),
         ..e
     })?;
-    let mut out: Vec<Partial> = Vec::new();
-    crate::try_reserve(&mut out, len, &what)?;
+    let mut parts = Parts::default();
+    crate::try_reserve(&mut parts.partials, len, &what)?;
     let probe_len = spec.params().probe.length();
-    out.resize(len, Partial::empty(spec.params().blend, probe_len));
+    parts
+        .partials
+        .resize(len, Partial::empty(spec.params().blend, probe_len));
+    if median {
+        crate::try_reserve(&mut parts.samples, len, &what)?;
+        parts.samples.resize(len, Vec::new());
+    }
     struct Task<'s, 'a, 'c> {
         spec: &'s RenderSpec<'a>,
         own: Own,
         threads: usize,
         control: &'s Control<'c>,
-        out: Vec<Partial>,
+        parts: Parts,
     }
     impl ConvoTask for Task<'_, '_, '_> {
-        type Output = crate::Result<Vec<Partial>>;
+        type Output = crate::Result<Parts>;
         fn run<V: Voxel, K: Kernel<S>, const S: usize>(
             self,
             vol: Volume<'_, V>,
-        ) -> crate::Result<Vec<Partial>> {
+        ) -> crate::Result<Parts> {
             let (spec, control, own) = (self.spec, self.control, &self.own);
             let [w, h] = spec.size().map(|x| x as usize);
-            let mut out = self.out;
+            let Parts {
+                mut partials,
+                mut samples,
+            } = self.parts;
+            let t0 = Instant::now();
+            let clock = || t0.elapsed().as_secs_f64() * 1000.0;
+            let timed = spec.params().time;
             let failed: Mutex<Option<rnd_core::Error>> = Mutex::new(None);
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
-            let done = bands(&mut out, w, h, self.threads, control, |rows, chunk| {
-                let r = spec.render_part_rows(vol.into(), K::NAME, skip.as_ref(), own, rows, chunk);
+            // Each band's sample lists (none without the median), taken by its worker.
+            let lists: Vec<Mutex<&mut [Vec<f32>]>> =
+                samples.chunks_mut(w * BAND).map(Mutex::new).collect();
+            let done = bands(&mut partials, w, h, self.threads, control, |rows, chunk| {
+                let b = rows.start as usize / BAND;
+                let mut none: [Vec<f32>; 0] = [];
+                let mut guard = lists.get(b).and_then(|l| l.lock().ok());
+                let kept: &mut [Vec<f32>] = match guard.as_deref_mut() {
+                    Some(l) => l,
+                    None => &mut none,
+                };
+                let clock = timed.then_some(&clock as &dyn Fn() -> f64);
+                let r = spec.render_part_rows(
+                    vol.into(),
+                    K::NAME,
+                    skip.as_ref(),
+                    own,
+                    rows,
+                    chunk,
+                    kept,
+                    clock,
+                );
                 if let (Err(e), Ok(mut f)) = (&r, failed.lock()) {
                     f.get_or_insert_with(|| e.clone());
                 }
                 r.is_ok()
             });
+            drop(lists);
             if let Some(e) = failed.into_inner().ok().flatten() {
                 return Err(e.into());
             }
             if done == h {
-                Ok(out)
+                Ok(Parts { partials, samples })
             } else {
                 Err(cancelled())
             }
@@ -277,7 +322,7 @@ pub fn render_part_with(
             own: *own,
             threads,
             control,
-            out,
+            parts,
         },
     )
 }

@@ -8,7 +8,7 @@ use rnd_core::brick::{decompose, ghosts, Brick, Own, Partial};
 use rnd_core::camera::CameraSpec;
 use rnd_core::kernel::KernelName;
 use rnd_core::probe::Probe;
-use rnd_core::render::{AnyVolume, RenderParams, RenderSpec};
+use rnd_core::render::{RenderParams, RenderSpec};
 use rnd_core::sdg::{self, Grid};
 use rnd_core::volume::Volume;
 use rnd_std::parallel::{render, render_part_with, Control};
@@ -37,7 +37,7 @@ fn bricked(
 ) -> Vec<f32> {
     let grid = whole.sizes();
     let (below, above) = ghosts(kernel);
-    let mut parts: Vec<Vec<Partial>> = Vec::new();
+    let mut parts: Vec<rnd_std::parallel::Parts> = Vec::new();
     for b in decompose(grid, n).unwrap() {
         let g = b.grown(below, above, grid);
         let own = Own::of(&b, grid);
@@ -58,11 +58,15 @@ fn bricked(
     }
     let ch = spec.channels();
     let by_t = spec.params().reference;
-    let mut img = vec![0.0f32; parts[0].len() * ch];
+    let mut img = vec![0.0f32; parts[0].partials.len() * ch];
     for (px, out) in img.chunks_mut(ch).enumerate() {
-        let mut of_px: Vec<Partial> = parts.iter().map(|p| p[px]).collect();
+        let mut of_px: Vec<Partial> = parts.iter().map(|p| p.partials[px]).collect();
+        let lists: Vec<&[f32]> = parts
+            .iter()
+            .map(|p| p.samples.get(px).map_or(&[][..], Vec::as_slice))
+            .collect();
         let whole_ray = Partial::composite_all(&mut of_px, by_t).unwrap();
-        whole_ray.finish(spec.params().outside, out);
+        whole_ray.finish(spec.params().outside, &lists, out);
     }
     img
 }
@@ -146,7 +150,9 @@ fn bricks_reproduce_the_whole_render_of_a_synthetic_volume() {
     .unwrap();
     // Convolved probes, probes counted everywhere (in, positions), several channels
     // (the gradient vector, the Hessian) and the f64 statistics.
-    let cases: [(Probe, Blend); 12] = [
+    let cases: [(Probe, Blend); 14] = [
+        (Probe::Value, Blend::Median),
+        (Probe::GradVec, Blend::Median),
         (Probe::Value, Blend::Max),
         (Probe::GradMag, Blend::Max),
         (Probe::Value, Blend::Min),
@@ -170,7 +176,7 @@ fn bricks_reproduce_the_whole_render_of_a_synthetic_volume() {
                     for n in 1..=5 {
                         let what = format!("{probe} {blend} {kernel} ref {reference} n {n}");
                         let b = bricked(&spec, &whole, kernel, n, 1 + n % 2);
-                        let exact = matches!(blend, Blend::Max | Blend::Min);
+                        let exact = matches!(blend, Blend::Max | Blend::Min | Blend::Median);
                         compare(&one, &b, exact, &what);
                     }
                 }
@@ -224,25 +230,10 @@ fn bricks_reproduce_the_bundled_head() {
     }
 }
 
-/// What cannot be split is refused with a message, and partials check their stretches.
+/// Partials check their stretches: overlaps and gaps are refused.
 #[test]
-fn bricks_refuse_what_they_cannot_split() {
+fn partials_composite_only_adjacent_stretches() {
     use rnd_core::blend::Blend;
-    let data = vec![1.0f32; 8 * 8 * 8];
-    let vol = Volume::new(&data, [8; 3], rnd_core::affine::Affine4::IDENTITY).unwrap();
-    let cam = CameraSpec::looking_at([3.5, 3.5, 20.0], [3.5; 3]).size(4, 4);
-    let spec = spec_for(cam, Probe::Value, Blend::Median, true, None, &[], |_| {});
-    let own = Own::of(&Brick::whole([8; 3]), [8; 3]);
-    let e = render_part_with(
-        &spec,
-        AnyVolume::from(vol),
-        KernelName::Tent,
-        &own,
-        1,
-        &Control::new(),
-    )
-    .unwrap_err();
-    assert!(e.to_string().contains("median"), "{e}");
     let a = Partial {
         first: 0,
         end: 5,

@@ -340,8 +340,7 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
         lev.as_ref(),
         lights.as_deref().unwrap_or(&[]),
     )
-    .map_err(anyhow::Error::from)
-    .and_then(|s| s.check_bricked().map(|_| s).map_err(anyhow::Error::from));
+    .map_err(anyhow::Error::from);
     let Some(spec) = agree(job, spec)? else {
         return Ok(());
     };
@@ -391,8 +390,9 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
     let sends: Vec<Vec<u8>> = (0..n)
         .map(|j| {
             let mut b = Vec::with_capacity(band(j).len() * Partial::record_len(blend, len));
-            for p in &parts[band(j)] {
-                p.encode(&mut b);
+            for i in band(j) {
+                let samples = parts.samples.get(i).map_or(&[][..], Vec::as_slice);
+                parts.partials[i].encode(samples, &mut b);
             }
             b
         })
@@ -400,21 +400,32 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
     drop(parts);
     let mine = (|| {
         let got = job.exchange(&sends)?;
-        let rec = Partial::record_len(blend, len);
         let ch = spec.channels();
+        let plen = spec.params().probe.length();
+        let mut at = vec![0usize; got.len()];
         let mut px = Vec::with_capacity(n);
+        let mut samples = Vec::with_capacity(n);
         let mut out = Vec::with_capacity(band(rank).len() * ch * 4);
         let mut pixel = vec![0.0f32; ch];
-        for i in 0..band(rank).len() {
+        for _ in band(rank) {
             px.clear();
-            for g in &got {
-                let p = g
-                    .get(i * rec..)
-                    .and_then(|b| Partial::decode(b, blend, len));
-                px.push(p.context("a rank sent too few partials")?);
+            samples.clear();
+            for (g, at) in got.iter().zip(&mut at) {
+                let (p, s, used) = g
+                    .get(*at..)
+                    .and_then(|b| Partial::decode(b, blend, len))
+                    .context("a rank sent too few partials")?;
+                *at += used;
+                px.push(p);
+                samples.push(s);
             }
             let whole_ray = Partial::composite_all(&mut px, spec.params().reference)?;
-            whole_ray.finish(spec.params().outside, &mut pixel);
+            let lists: Vec<&[f32]> = samples.iter().map(Vec::as_slice).collect();
+            whole_ray.finish(spec.params().outside, &lists, &mut pixel[..plen]);
+            if ch > plen {
+                // The time channel: the milliseconds of every rank's stretch.
+                pixel[plen] = whole_ray.time;
+            }
             for x in &pixel {
                 out.extend_from_slice(&x.to_le_bytes());
             }
