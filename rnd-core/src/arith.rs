@@ -317,10 +317,16 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         }
         for l in 0..N {
             let k = k0 + l as u32;
-            let (n, f) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
-            out.n[l] = core::array::from_fn(|a| n[a] - self.org[a]);
-            out.f[l] = f;
+            (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
             (out.inside[l], out.past[l]) = (true, false);
+        }
+        // Support starts count from the samples held.
+        if self.org != [0; 3] {
+            for n in &mut out.n {
+                for a in 0..3 {
+                    n[a] -= self.org[a];
+                }
+            }
         }
     }
     fn positions(&self, ray: &F64Ray, k: u32) -> [[f64; 3]; 3] {
@@ -433,6 +439,12 @@ pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     pub wtoi: RefIndex,
     pub plane_sep: f32,
     pub unit_step: f32,
+    /// Per axis: the kernel's first support offset less the grid index of the first
+    /// sample held (LO − origin: a support start relative to the samples held is
+    /// floor + this), and the last index held relative to it (size − 1), in f32 (exact:
+    /// integers below 2^24).
+    lo_off: [f32; 3],
+    top: [f32; 3],
     _k: core::marker::PhantomData<K>,
 }
 
@@ -444,7 +456,10 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         plane_sep: f32,
         unit_step: f32,
     ) -> Self {
+        let (o, sz) = (vol.origin(), vol.sizes());
         Reference {
+            lo_off: o.map(|o| K::LO as f32 - o as f32),
+            top: sz.map(|n| n as f32 - 1.0),
             wtoi: RefIndex::new(vol.itow()),
             vol,
             simd,
@@ -516,13 +531,13 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             }
         }
         let (m, t) = (&self.wtoi.m, &self.wtoi.t);
-        let (sz, org) = (self.vol.sizes(), self.vol.origin());
+        let (top, lo_off) = (self.top, self.lo_off);
         // Axis by axis over whole lanes (so it vectorizes), then gathered per sample.
         let mut lo = [[0i64; N]; 3];
         let mut frac = [[0.0f32; N]; 3];
         let mut ins = [[false; N]; 3];
         for a in 0..3 {
-            let top = sz[a] as f32 - 1.0;
+            let (top, lo_off) = (top[a], lo_off[a]);
             // `refarith::place`, lane by lane.
             // (Plain loops: `array::from_fn` may stay out of line, compiled without the
             // vector level.)
@@ -539,7 +554,9 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             crate::simd::floor_lanes(self.simd, &mut base);
             for l in 0..N {
                 let (x, base) = (x[l], base[l]);
-                let first = base + K::LO as f32 - org[a] as f32;
+                // (base + LO − origin: the same value as base + LO − origin in two
+                // steps wherever the support can be inside, |base| < 2^24.)
+                let first = base + lo_off;
                 ins[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
                 // For an integer 0 ≤ c < 2^52, c + 2^52 holds c in its low mantissa
                 // bits: a conversion that vectorizes. Exact for inside lanes (0 ≤ first
