@@ -183,7 +183,13 @@ pub static SPEC: CmdSpec = CmdSpec {
            0); sd (sqrt of variance); median (middle of the sorted samples, the mean of \
            the two middle ones for even N; NaN sorts above +inf); over (front-to-back \
            compositing, needs rgba or rgbalit). min l2 variance sd median are Teem's \
-           measures (teem-mrender -m min L2 variance stdv median).",
+           measures (teem-mrender -m min L2 variance stdv median).\n\
+           Under \"mpirun -np N\" (a build with the cargo feature mpi) the volume is \
+           rendered in N bricks, each process reading only its own (from a NRRD) and \
+           casting every ray's stretch inside it; the partials are composited in ray \
+           order and process 0 writes the image: max, min and median give the image of \
+           one process bit for bit, sum, mean and over the same up to float rounding \
+           (docs/SCALING.md); -db is refused there (run it without mpirun).",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),

@@ -20,7 +20,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            PREFIX-0000.png, PREFIX-0001.png, ... (or .nrrd with -f nrrd) after all have \
            rendered, with PREFIX-cams.txt giving each frame's camera as go options, so \
            \"rendr go\" with them writes the same frame bit for bit; -apng also writes \
-           an animated PNG.",
+           an animated PNG. Under \"mpirun -np N\" (a build with the cargo feature mpi) \
+           frame i renders on process i mod N, each reading the whole volume, and \
+           process 0 writes the files one process would write.",
     response_files: true,
     opts: super::go::go_opts!(
         crate::args::req(&["n"], 1, "frames", "number of frames (1 to 100000)"),
