@@ -7,24 +7,11 @@
 //! (CI).
 #![cfg(feature = "mpi")]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 const RENDR: &str = env!("CARGO_BIN_EXE_rendr");
-
-fn data(f: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(f)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rendr-test-{}-mpi-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn have_mpirun() -> bool {
     if Command::new("mpirun").arg("--version").output().is_ok() {
@@ -59,6 +46,38 @@ fn mpirun(dir: &Path, args: &[String]) -> Output {
     child.wait_with_output().unwrap()
 }
 
+/// `mpirun -np np rendr go ARGS EXTRA` in `dir`.
+fn go_np(dir: &Path, np: usize, args: &[String], extra: &[&str]) -> Output {
+    let mut m = vec![
+        "-np".to_string(),
+        np.to_string(),
+        RENDR.to_string(),
+        "go".into(),
+    ];
+    m.extend(args.iter().cloned());
+    m.extend(extra.iter().map(|x| x.to_string()));
+    mpirun(dir, &m)
+}
+
+/// Runs `rendr ARGS` (one process) in `dir`, failing the test when it fails.
+fn rendr_ok(dir: &Path, args: &[String]) {
+    let out = Command::new(RENDR)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "rendr {args:?}: {err}");
+}
+
+/// A synthetic volume (`rendr sdg -w 12`, Marschner-Lobb) of `sizes` as `out` in `dir`.
+fn sdg(dir: &Path, sizes: [&str; 3], out: &str) {
+    let mut a: Vec<String> = ["sdg", "-w", "12", "-sz"].map(String::from).to_vec();
+    a.extend(sizes.map(String::from));
+    a.extend(["-r", "0.1", "0.2", "0", "-o", out].map(String::from));
+    rendr_ok(dir, &a);
+}
+
 /// `mpirun` arguments that start one rank per argument list (MPMD: `-np 1 rendr ARGS :
 /// -np 1 rendr ARGS ...`), rank i running `ranks[i]`.
 fn mpmd(ranks: &[&Vec<String>]) -> Vec<String> {
@@ -75,7 +94,7 @@ fn mpmd(ranks: &[&Vec<String>]) -> Vec<String> {
 
 fn turn_args(prefix: &str) -> Vec<String> {
     let mut v: Vec<String> = ["turn", "-i"].map(String::from).to_vec();
-    v.push(data("itk-t1-head.nrrd").display().to_string());
+    v.push(rnd_tests::data("itk-t1-head.nrrd").display().to_string());
     v.extend(
         [
             "-k", "tent", "-p", "v", "-b", "max", "-s", "2", "-nc", "-150", "-fc", "150", "-sz",
@@ -94,7 +113,7 @@ fn turn_under_mpi_writes_the_frames_of_one_process() {
     if !have_mpirun() {
         return;
     }
-    let dir = tmp("turn");
+    let dir = rnd_tests::tmpdir("mpi-turn");
     let one = Command::new(RENDR)
         .args(turn_args("one"))
         .current_dir(&dir)
@@ -132,7 +151,7 @@ fn a_failing_rank_stops_the_job_with_its_message_and_no_output() {
     if !have_mpirun() {
         return;
     }
-    let dir = tmp("fail");
+    let dir = rnd_tests::tmpdir("mpi-fail");
     // Rank 1 alone is given a lights file that does not exist (MPMD: one program line
     // per rank).
     let good = turn_args("bad");
@@ -165,7 +184,7 @@ fn floats(path: &Path) -> Vec<f32> {
 /// `go` options of the test scenes: the bundled head (i16) lit `over` with its LUT and
 /// lights, and MIPs and sums of a synthetic float volume, perspective and orthographic.
 fn go_scenes() -> Vec<(&'static str, bool, Vec<String>)> {
-    let head = data("itk-t1-head.nrrd").display().to_string();
+    let head = rnd_tests::data("itk-t1-head.nrrd").display().to_string();
     let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
     let head_cam = s(&[
         "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1", "-nc",
@@ -180,8 +199,14 @@ fn go_scenes() -> Vec<(&'static str, bool, Vec<String>)> {
         "-i", &head, "-k", "bspln3", "-p", "rgbalit", "-b", "over", "-s", "1", "-us", "2",
     ]);
     lit.extend(head_cam.clone());
-    lit.extend(s(&["-lut", &data("head-lut.nrrd").display().to_string()]));
-    lit.extend(s(&["-lit", &data("head-lights.txt").display().to_string()]));
+    lit.extend(s(&[
+        "-lut",
+        &rnd_tests::data("head-lut.nrrd").display().to_string(),
+    ]));
+    lit.extend(s(&[
+        "-lit",
+        &rnd_tests::data("head-lights.txt").display().to_string(),
+    ]));
     out.push(("head over", false, lit));
     let mut mip = s(&[
         "-i", &head, "-k", "tent", "-p", "v", "-b", "max", "-s", "0.7",
@@ -213,50 +238,18 @@ fn go_under_mpi_renders_in_bricks_the_image_of_one_process() {
     if !have_mpirun() {
         return;
     }
-    let dir = tmp("go");
-    let sdg = Command::new(RENDR)
-        .args([
-            "sdg", "-w", "12", "-sz", "45", "38", "31", "-r", "0.1", "0.2", "0", "-o",
-        ])
-        .arg("syn.nrrd")
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        sdg.status.success(),
-        "{}",
-        String::from_utf8_lossy(&sdg.stderr)
-    );
+    let dir = rnd_tests::tmpdir("mpi-go");
+    sdg(&dir, ["45", "38", "31"], "syn.nrrd");
     for (name, exact, args) in go_scenes() {
-        let one = Command::new(RENDR)
-            .arg("go")
-            .args(&args)
-            .args(["-o", "one.nrrd"])
-            .current_dir(&dir)
-            .output()
-            .unwrap();
-        assert!(
-            one.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&one.stderr)
-        );
+        let mut one = vec!["go".to_string()];
+        one.extend(args.iter().cloned());
+        one.extend(["-o", "one.nrrd"].map(String::from));
+        rendr_ok(&dir, &one);
         let a = floats(&dir.join("one.nrrd"));
         assert!(a.iter().any(|&x| x != 0.0), "{name}: an empty image");
         for np in 1..=4 {
-            let mut m = vec![
-                "-np".to_string(),
-                np.to_string(),
-                RENDR.to_string(),
-                "go".into(),
-            ];
-            m.extend(args.iter().cloned());
-            m.extend([
-                "-nt".to_string(),
-                "1".to_string(),
-                "-o".into(),
-                format!("np{np}.nrrd"),
-            ]);
-            let out = mpirun(&dir, &m);
+            let o = format!("np{np}.nrrd");
+            let out = go_np(&dir, np, &args, &["-nt", "1", "-o", &o]);
             assert!(
                 out.status.success(),
                 "{name} np {np}: {}",
@@ -286,12 +279,9 @@ fn go_under_mpi_fills_the_time_channel() {
     if !have_mpirun() {
         return;
     }
-    let dir = tmp("time");
+    let dir = rnd_tests::tmpdir("mpi-time");
     let (_, _, mip) = go_scenes().remove(1);
-    let mut m: Vec<String> = vec!["-np".into(), "3".into(), RENDR.into(), "go".into()];
-    m.extend(mip);
-    m.extend(["-t".to_string(), "-o".into(), "t.nrrd".into()]);
-    let out = mpirun(&dir, &m);
+    let out = go_np(&dir, 3, &mip, &["-t", "-o", "t.nrrd"]);
     assert!(
         out.status.success(),
         "{}",
@@ -312,7 +302,7 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     if !have_mpirun() {
         return;
     }
-    let dir = tmp("gofail");
+    let dir = rnd_tests::tmpdir("mpi-gofail");
     let (_, _, good) = go_scenes().remove(1);
     let mut go = vec!["go".to_string()];
     go.extend(good);
@@ -331,24 +321,12 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     assert!(left.is_empty(), "output left behind: {left:?}");
     // A brick that cannot be read: a gzip volume cut short, whose lower half (rank 0's
     // brick, split along z) is intact and whose upper half is missing.
-    let sdg = Command::new(RENDR)
-        .args(["sdg", "-w", "12", "-sz", "20", "20", "40", "-o", "cut.nrrd"])
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        sdg.status.success(),
-        "{}",
-        String::from_utf8_lossy(&sdg.stderr)
-    );
+    sdg(&dir, ["20", "20", "40"], "cut.nrrd");
     let whole = std::fs::read(dir.join("cut.nrrd")).unwrap();
     std::fs::write(dir.join("cut.nrrd"), &whole[..whole.len() * 4 / 5]).unwrap();
     let (_, _, mut syn) = go_scenes().remove(2);
     syn[1] = "cut.nrrd".into();
-    let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into(), "go".into()];
-    m.extend(syn);
-    m.extend(["-o".to_string(), "x.png".to_string()]);
-    let out = mpirun(&dir, &m);
+    let out = go_np(&dir, 2, &syn, &["-o", "x.png"]);
     assert!(!out.status.success(), "a truncated brick was rendered");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -359,10 +337,7 @@ fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     assert!(!dir.join("x.png").exists());
     std::fs::remove_file(dir.join("cut.nrrd")).unwrap();
     // -db traces one ray in one process: refused with a message, nothing written.
-    let mut m: Vec<String> = vec!["-np".into(), "2".into(), RENDR.into()];
-    m.extend(go.iter().cloned());
-    m.extend(["-db", "3", "3"].map(String::from));
-    let out = mpirun(&dir, &m);
+    let out = go_np(&dir, 2, &go[1..], &["-db", "3", "3"]);
     assert!(!out.status.success(), "-db under mpirun");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("-db traces a ray in one process"), "{err}");

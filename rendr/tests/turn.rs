@@ -2,23 +2,10 @@
 //! for byte), turntable and key-frame cameras where geometry puts them, the animated
 //! PNG holds the frames, and bad input fails before anything is written.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 const RENDR: &str = env!("CARGO_BIN_EXE_rendr");
-
-fn data(f: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(f)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rendr-test-{}-turn-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// The render options shared by `turn` and `go` (camera position given separately).
 const COMMON: &[&str] = &[
@@ -30,7 +17,7 @@ fn turn(dir: &Path, extra: &[&str]) -> std::process::Output {
     Command::new(RENDR)
         .arg("turn")
         .arg("-i")
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(COMMON)
         .args(extra)
         .current_dir(dir)
@@ -61,7 +48,7 @@ fn nums(words: &[String], opt: &str, n: usize) -> Vec<f64> {
 
 #[test]
 fn every_frame_is_go_with_its_camera() {
-    let dir = tmp("frames");
+    let dir = rnd_tests::tmpdir("turn-frames");
     let out = turn(
         &dir,
         &[
@@ -80,7 +67,7 @@ fn every_frame_is_go_with_its_camera() {
         let go = Command::new(RENDR)
             .arg("go")
             .arg("-i")
-            .arg(data("itk-t1-head.nrrd"))
+            .arg(rnd_tests::data("itk-t1-head.nrrd"))
             .args(COMMON)
             .args(words)
             .args(["-o", "go.png"])
@@ -117,7 +104,7 @@ fn every_frame_is_go_with_its_camera() {
 
 #[test]
 fn key_frames_are_passed_through_and_interpolated() {
-    let dir = tmp("keys");
+    let dir = rnd_tests::tmpdir("turn-keys");
     std::fs::write(
         dir.join("keys.txt"),
         "# fr at up fov\n\
@@ -151,7 +138,7 @@ fn key_frames_are_passed_through_and_interpolated() {
 
 #[test]
 fn bad_input_fails_before_writing() {
-    let dir = tmp("bad");
+    let dir = rnd_tests::tmpdir("turn-bad");
     let cam = [
         "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1", "-fov",
         "30",

@@ -4,16 +4,9 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
 const RENDR: &str = env!("CARGO_BIN_EXE_rendr");
-
-fn data(f: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(f)
-}
 
 /// A running `rendr view`, killed when dropped.
 struct Viewer {
@@ -32,7 +25,7 @@ impl Drop for Viewer {
 fn start(extra: &[&str]) -> Viewer {
     let mut child = Command::new(RENDR)
         .arg("view")
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(["-port", "0"])
         .args(extra)
         .stdout(Stdio::piped())
@@ -292,9 +285,9 @@ fn a_render_request_gives_the_bytes_of_its_commands() {
     let dir = std::env::temp_dir().join(format!("rendr-test-{}-view", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let rgb = std::fs::read_to_string(data("skin-rgb.txt")).unwrap();
-    let alpha = std::fs::read_to_string(data("skin-alpha.txt")).unwrap();
-    let lights = std::fs::read_to_string(data("head-lights.txt")).unwrap();
+    let rgb = std::fs::read_to_string(rnd_tests::data("skin-rgb.txt")).unwrap();
+    let alpha = std::fs::read_to_string(rnd_tests::data("skin-alpha.txt")).unwrap();
+    let lights = std::fs::read_to_string(rnd_tests::data("head-lights.txt")).unwrap();
     let args: Vec<&str> = [
         "-k", "bspln3", "-p", "rgbalit", "-b", "over", "-s", "1", "-us", "2", "-sz", "64", "48",
         "-nt", "2", "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0",
@@ -327,7 +320,7 @@ fn a_render_request_gives_the_bytes_of_its_commands() {
     ]));
     ok(Command::new(RENDR)
         .args(["go", "-i"])
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(["-lut", "lut.nrrd", "-lit", "lights.txt"])
         .args(&args)
         .args(["-o", "rendr.png"]));
@@ -341,7 +334,7 @@ fn a_render_request_gives_the_bytes_of_its_commands() {
     std::fs::write(dir.join("view.nrrd"), &nrrd).unwrap();
     ok(Command::new(RENDR)
         .args(["go", "-i"])
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(["-lut", "lut.nrrd", "-lit", "lights.txt"])
         .args(&args)
         .args(["-o", "go.nrrd"]));
@@ -369,7 +362,7 @@ fn bad_command_lines_fail_before_serving() {
     assert!(err.contains("/nonexistent/vol.nrrd"), "{err}");
     let out = Command::new(RENDR)
         .arg("view")
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(["-fr", "1", "2", "3"])
         .output()
         .unwrap();
@@ -377,7 +370,7 @@ fn bad_command_lines_fail_before_serving() {
     assert!(text(&out.stderr).contains("-fov"), "{}", text(&out.stderr));
     let out = Command::new(RENDR)
         .arg("view")
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(["-k", "wobbly"])
         .output()
         .unwrap();
@@ -391,11 +384,14 @@ fn bad_command_lines_fail_before_serving() {
 
 #[test]
 fn the_command_line_lut_and_lights_serve_requests_without_their_own() {
-    let (lut, lit) = (data("head-lut.nrrd"), data("head-lights.txt"));
+    let (lut, lit) = (
+        rnd_tests::data("head-lut.nrrd"),
+        rnd_tests::data("head-lights.txt"),
+    );
     let v = start(&["-lut", lut.to_str().unwrap(), "-lit", lit.to_str().unwrap()]);
     let (_, info) = get(&v, &format!("/info?t={}", v.token), "");
     let info = text(&info);
-    let lut = data("head-lut.nrrd").canonicalize().unwrap();
+    let lut = rnd_tests::data("head-lut.nrrd").canonicalize().unwrap();
     assert!(
         info.contains(&format!("\"lut_file\":\"{}\"", lut.display())),
         "the LUT is named absolutely: {info}"
@@ -409,11 +405,11 @@ fn the_command_line_lut_and_lights_serve_requests_without_their_own() {
     std::fs::create_dir_all(&dir).unwrap();
     let st = Command::new(RENDR)
         .args(["go", "-i"])
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .arg("-lut")
         .arg(&lut)
         .arg("-lit")
-        .arg(data("head-lights.txt"))
+        .arg(rnd_tests::data("head-lights.txt"))
         .args(&args)
         .arg("-o")
         .arg(dir.join("go.png"))

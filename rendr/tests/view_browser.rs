@@ -19,12 +19,6 @@ use serde_json::{json, Value};
 
 const RENDR: &str = env!("CARGO_BIN_EXE_rendr");
 
-fn data(f: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(f)
-}
-
 /// A child process killed when dropped.
 struct Kill(Child);
 
@@ -252,7 +246,7 @@ async fn the_page_orbits_edits_and_prints_the_exact_command() {
     // The viewer, on the bundled head: lit `over`, a small picture.
     let mut child = Command::new(RENDR)
         .arg("view")
-        .arg(data("itk-t1-head.nrrd"))
+        .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args([
             "-port", "0", "-p", "rgbalit", "-b", "over", "-s", "1", "-us", "2",
         ])
@@ -267,7 +261,7 @@ async fn the_page_orbits_edits_and_prints_the_exact_command() {
         ])
         .args(["-nc", "-150", "-fc", "150", "-fov", "30"])
         .arg("-lit")
-        .arg(data("head-lights.txt"))
+        .arg(rnd_tests::data("head-lights.txt"))
         .stdout(Stdio::piped())
         .spawn()
         .expect("rendr view");

@@ -518,64 +518,28 @@ mod tests {
 
     #[test]
     fn cuts_go_across_the_longest_axis_in_proportion() {
+        let b = |lo, hi| Brick { lo, hi };
         assert_eq!(
             decompose([10, 20, 5], 1).unwrap(),
             [Brick::whole([10, 20, 5])]
         );
-        let two = decompose([10, 20, 5], 2).unwrap();
         assert_eq!(
-            two[0],
-            Brick {
-                lo: [0, 0, 0],
-                hi: [10, 10, 5]
-            }
-        );
-        assert_eq!(
-            two[1],
-            Brick {
-                lo: [0, 10, 0],
-                hi: [10, 20, 5]
-            }
+            decompose([10, 20, 5], 2).unwrap(),
+            [b([0, 0, 0], [10, 10, 5]), b([0, 10, 0], [10, 20, 5])]
         );
         // Three parts: one third below the cut, two thirds above (cut again).
-        let three = decompose([30, 8, 8], 3).unwrap();
         assert_eq!(
-            three[0],
-            Brick {
-                lo: [0, 0, 0],
-                hi: [10, 8, 8]
-            }
-        );
-        assert_eq!(
-            three[1],
-            Brick {
-                lo: [10, 0, 0],
-                hi: [20, 8, 8]
-            }
-        );
-        assert_eq!(
-            three[2],
-            Brick {
-                lo: [20, 0, 0],
-                hi: [30, 8, 8]
-            }
+            decompose([30, 8, 8], 3).unwrap(),
+            [
+                b([0, 0, 0], [10, 8, 8]),
+                b([10, 0, 0], [20, 8, 8]),
+                b([20, 0, 0], [30, 8, 8])
+            ]
         );
         // Four parts of a cube: halves along x, then each along y.
         let four = decompose([8, 8, 8], 4).unwrap();
-        assert_eq!(
-            four[0],
-            Brick {
-                lo: [0, 0, 0],
-                hi: [4, 4, 8]
-            }
-        );
-        assert_eq!(
-            four[3],
-            Brick {
-                lo: [4, 4, 0],
-                hi: [8, 8, 8]
-            }
-        );
+        assert_eq!(four[0], b([0, 0, 0], [4, 4, 8]));
+        assert_eq!(four[3], b([4, 4, 0], [8, 8, 8]));
     }
 
     #[test]

@@ -16,6 +16,11 @@ pub fn root() -> PathBuf {
         .to_path_buf()
 }
 
+/// File `f` of the bundled `data/` directory.
+pub fn data(f: &str) -> PathBuf {
+    root().join("data").join(f)
+}
+
 fn required(var: &str) -> bool {
     std::env::var(var).is_ok_and(|v| v == "1")
 }
