@@ -20,6 +20,7 @@ use crate::convo::{
 use crate::kernel::Kernel;
 use crate::math;
 use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
+use crate::simd::LaneBatch;
 use crate::simd::Simd;
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -114,12 +115,15 @@ pub(crate) trait Arith {
         m: usize,
         out: &mut [[f32; 4]; N],
     );
-    /// The sums of the `N` consecutive samples from k, all inside (an exact span), with
-    /// positions computed alongside; false when the strategy has no such path.
+    /// The sums of the `N` consecutive samples from k, with positions computed
+    /// alongside, when all of them are inside and before the far plane (`exact`: the
+    /// ray's span says so); false when they are not, or the strategy has no such path
+    /// (then nothing was done).
     fn convolve_run<const G: bool, const N: usize>(
         &self,
         _ray: &Self::Ray,
         _k: u32,
+        _exact: bool,
         _out: &mut [[f32; 4]; N],
     ) -> bool {
         false
@@ -381,10 +385,12 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         &self,
         ray: &F64Ray,
         k: u32,
+        exact: bool,
         out: &mut [[f32; 4]; N],
     ) -> bool {
-        // The runs place their samples in the grid's indices: whole volumes only.
-        if self.org != [0; 3] {
+        // The runs place their samples in the grid's indices (whole volumes only) and
+        // need an exact span.
+        if !exact || self.org != [0; 3] {
             return false;
         }
         self.convo
@@ -475,6 +481,85 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         let kf = k as f32;
         core::array::from_fn(|a| ray.start[a] + kf * ray.step[a])
     }
+
+    /// [`Arith::place`] of the `N` samples from `k0`, lane by lane and axis by axis
+    /// (so that it vectorizes).
+    #[inline(always)]
+    fn place_lanes<const N: usize>(&self, ray: &RefRay, k0: u32) -> Lanes3<N> {
+        let cam = self.cam;
+        let mut kf = [0.0f32; N];
+        for (l, v) in kf.iter_mut().enumerate() {
+            *v = (k0 + l as u32) as f32;
+        }
+        let mut pv = [[0.0f32; N]; 3];
+        for a in 0..3 {
+            for l in 0..N {
+                pv[a][l] = ray.start[a] + kf[l] * ray.step[a];
+            }
+        }
+        let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
+        let mut pw = [[0.0f32; N]; 3];
+        for r in 0..3 {
+            for l in 0..N {
+                pw[r][l] = u[r] * pv[0][l] + v[r] * pv[1][l] + n[r] * pv[2][l] + fr[r] * 1.0;
+            }
+        }
+        let (m, t) = (&self.wtoi.m, &self.wtoi.t);
+        let mut out = Lanes3 {
+            first: [[0.0; N]; 3],
+            frac: [[0.0; N]; 3],
+            inside: [[false; N]; 3],
+            past: [false; N],
+        };
+        for a in 0..3 {
+            let (top, lo_off) = (self.top[a], self.lo_off[a]);
+            // `refarith::place`, lane by lane.
+            // (Plain loops: `array::from_fn` may stay out of line, compiled without the
+            // vector level.)
+            let mut x = [0.0f32; N];
+            let mut base = [0.0f32; N];
+            for l in 0..N {
+                x[l] = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
+                base[l] = if S.is_multiple_of(2) {
+                    x[l]
+                } else {
+                    x[l] + 0.5
+                };
+            }
+            crate::simd::floor_lanes(self.simd, &mut base);
+            for l in 0..N {
+                let (x, base) = (x[l], base[l]);
+                // (base + LO − origin: the same value as base + LO − origin in two
+                // steps wherever the support can be inside, |base| < 2^24.)
+                let first = base + lo_off;
+                out.inside[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
+                out.first[a][l] = first;
+                out.frac[a][l] = x - base;
+            }
+        }
+        for l in 0..N {
+            out.past[l] = -pv[2][l] > cam.fcv;
+        }
+        out
+    }
+}
+
+/// The reference placement of `N` samples in lanes: per axis the first support index
+/// relative to the samples held (an integer in f32, exact where inside), the fractional
+/// offset and whether the support is inside; whether each sample is past the far plane.
+struct Lanes3<const N: usize> {
+    first: [[f32; N]; 3],
+    frac: [[f32; N]; 3],
+    inside: [[bool; N]; 3],
+    past: [bool; N],
+}
+
+/// An integer 0 ≤ c < 2^52 held in an f64, as i64: c + 2^52 holds c in its low
+/// mantissa bits, a conversion that vectorizes (for other values the result is
+/// meaningless, and not read).
+#[inline(always)]
+fn index(c: f64) -> i64 {
+    ((c + 4_503_599_627_370_496.0).to_bits() as i64).wrapping_sub(0x4330_0000_0000_0000)
 }
 
 impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S> {
@@ -512,65 +597,12 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         _exact: bool,
         out: &mut Placed<[f32; 3], N>,
     ) {
-        let cam = self.cam;
-        let mut kf = [0.0f32; N];
-        for (l, v) in kf.iter_mut().enumerate() {
-            *v = (k0 + l as u32) as f32;
-        }
-        let mut pv = [[0.0f32; N]; 3];
-        for a in 0..3 {
-            for l in 0..N {
-                pv[a][l] = ray.start[a] + kf[l] * ray.step[a];
-            }
-        }
-        let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
-        let mut pw = [[0.0f32; N]; 3];
-        for r in 0..3 {
-            for l in 0..N {
-                pw[r][l] = u[r] * pv[0][l] + v[r] * pv[1][l] + n[r] * pv[2][l] + fr[r] * 1.0;
-            }
-        }
-        let (m, t) = (&self.wtoi.m, &self.wtoi.t);
-        let (top, lo_off) = (self.top, self.lo_off);
-        // Axis by axis over whole lanes (so it vectorizes), then gathered per sample.
-        let mut lo = [[0i64; N]; 3];
-        let mut frac = [[0.0f32; N]; 3];
-        let mut ins = [[false; N]; 3];
-        for a in 0..3 {
-            let (top, lo_off) = (top[a], lo_off[a]);
-            // `refarith::place`, lane by lane.
-            // (Plain loops: `array::from_fn` may stay out of line, compiled without the
-            // vector level.)
-            let mut x = [0.0f32; N];
-            let mut base = [0.0f32; N];
-            for l in 0..N {
-                x[l] = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
-                base[l] = if S.is_multiple_of(2) {
-                    x[l]
-                } else {
-                    x[l] + 0.5
-                };
-            }
-            crate::simd::floor_lanes(self.simd, &mut base);
-            for l in 0..N {
-                let (x, base) = (x[l], base[l]);
-                // (base + LO − origin: the same value as base + LO − origin in two
-                // steps wherever the support can be inside, |base| < 2^24.)
-                let first = base + lo_off;
-                ins[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
-                // For an integer 0 ≤ c < 2^52, c + 2^52 holds c in its low mantissa
-                // bits: a conversion that vectorizes. Exact for inside lanes (0 ≤ first
-                // < 2^24); the others are not read.
-                let bits = (f64::from(first) + 4_503_599_627_370_496.0).to_bits() as i64;
-                lo[a][l] = bits.wrapping_sub(0x4330_0000_0000_0000);
-                frac[a][l] = x - base;
-            }
-        }
+        let p = self.place_lanes::<N>(ray, k0);
         for l in 0..N {
-            out.past[l] = -pv[2][l] > cam.fcv;
-            out.inside[l] = ins[0][l] & ins[1][l] & ins[2][l];
-            out.n[l] = [lo[0][l], lo[1][l], lo[2][l]];
-            out.f[l] = [frac[0][l], frac[1][l], frac[2][l]];
+            out.past[l] = p.past[l];
+            out.inside[l] = p.inside[0][l] & p.inside[1][l] & p.inside[2][l];
+            out.n[l] = [p.first[0][l], p.first[1][l], p.first[2][l]].map(|x| index(f64::from(x)));
+            out.f[l] = [p.frac[0][l], p.frac[1][l], p.frac[2][l]];
         }
     }
     fn positions(&self, ray: &RefRay, k: u32) -> [[f64; 3]; 3] {
@@ -620,6 +652,51 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             lanes.clear();
             i += take;
         }
+    }
+    /// The placement in lanes, each support's first voxel as a flat index straight
+    /// from it, and the lane sums: no per-sample copies.
+    #[inline(always)]
+    fn convolve_run<const G: bool, const N: usize>(
+        &self,
+        ray: &RefRay,
+        k: u32,
+        _exact: bool,
+        out: &mut [[f32; 4]; N],
+    ) -> bool {
+        let Ok(out) = <&mut [[f32; 4]; LANES]>::try_from(&mut out[..]) else {
+            return false;
+        };
+        let p = self.place_lanes::<LANES>(ray, k);
+        let mut all = true;
+        for l in 0..LANES {
+            all &= p.inside[0][l] & p.inside[1][l] & p.inside[2][l] & !p.past[l];
+        }
+        if !all {
+            return false;
+        }
+        // first0 + s0 (first1 + s1 first2): integers below 2^53 (the sizes of data held
+        // in memory), exact in f64.
+        // (Loops over whole lanes, so that they vectorize.)
+        let sz = self.vol.sizes().map(|n| n as f64);
+        let mut flat = [0.0f64; LANES];
+        for (l, x) in flat.iter_mut().enumerate() {
+            *x = f64::from(p.first[1][l]) + sz[1] * f64::from(p.first[2][l]);
+        }
+        for (l, x) in flat.iter_mut().enumerate() {
+            *x = f64::from(p.first[0][l]) + sz[0] * *x;
+        }
+        let mut base = [0usize; LANES];
+        for (b, &x) in base.iter_mut().zip(&flat) {
+            *b = index(x) as usize;
+        }
+        let batch = LaneBatch {
+            vol: &self.vol,
+            base: &base,
+            al: &p.frac,
+            len: LANES,
+        };
+        crate::simd::lane_sums::<V, K, S, G>(self.simd, batch, out);
+        true
     }
     #[inline(always)]
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {

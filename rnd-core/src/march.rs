@@ -201,10 +201,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Some(_) if !tracing => self.a.line(&ray, k1),
             _ => None,
         };
-        // Runs of consecutive samples with positions computed alongside the sums (an
-        // exact span, nothing to skip).
-        let runs = exact && !over && !tracing && below.is_none() && !sp.second;
+        // Blocks of N samples to take whole when all are inside and before the far
+        // plane (nothing to skip or trace), and among them runs: positions computed
+        // alongside the sums (the strategy checks that they are inside).
         let whole = N > 1 && !everywhere && !tracing && skip.is_none() && below.is_none();
+        let runs = whole && !over && !sp.second;
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
@@ -219,7 +220,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         'ray: while k < k1 {
             if runs && m == 0 && k1 - k >= N as u32 {
                 let mut res = [[0.0f32; 4]; N];
-                if self.a.convolve_run::<G, N>(&ray, k, &mut res) {
+                if self.a.convolve_run::<G, N>(&ray, k, exact, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
                     if self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res) {
                         return self.finish(&mut st, out);
