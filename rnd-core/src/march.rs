@@ -67,10 +67,12 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// Under `max` with bounds: the sample number where the last ray cast found its
     /// maximum (a good first guess for the next ray's; results never depend on it).
     pub hint: Cell<Option<u32>>,
-    /// Consecutive rays on which bounds skipped nothing: past [`IDLE`], only every
-    /// 16th ray looks at them (where they never help, their cost is saved; results
-    /// never depend on it).
+    /// Consecutive rays on which bounds skipped nothing, and the rays left to cast
+    /// before the next one looks at them: past [`IDLE`], a ray looks only after a wait
+    /// that doubles with each fruitless look, from 16 rays up to [`WAIT_MAX`] (where
+    /// they never help, their cost is saved; results never depend on it).
     pub idle: Cell<u32>,
+    pub wait: Cell<u32>,
     /// Under `median`: the lists of samples, reused from ray to ray.
     pub kept: Cell<Kept>,
     /// For a brick of a sort-last render: the stretch of each ray it casts; set when a
@@ -87,8 +89,10 @@ pub(crate) enum Out<'o> {
     Part(&'o mut Partial, &'o mut alloc::vec::Vec<f32>),
 }
 
-/// Rays without a skip after which bounds are looked at only on every 16th ray.
+/// Rays without a skip after which bounds are looked at only now and then.
 const IDLE: u32 = 8;
+/// The longest wait, in rays, between two looks at bounds that skip nothing.
+const WAIT_MAX: u32 = 256;
 
 /// One ray's running state.
 struct State<'t> {
@@ -192,9 +196,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let (skip, below) = match self.skip {
             Some(g) if g.kind() == SkipKind::Opacity => (Some(g), None),
             // A trace sees every sample's value.
-            Some(g) if !tracing && (self.idle.get() < IDLE || hi.is_multiple_of(16)) => {
-                (None, Some(g))
-            }
+            Some(g) if !tracing && self.look() => (None, Some(g)),
             _ => (None, None),
         };
         let line = match skip.or(below) {
@@ -343,14 +345,29 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m));
         if below.is_some() {
             self.hint.set(st.best);
-            self.idle.set(if st.unseen == 0 {
+            let idle = if st.unseen == 0 {
                 self.idle.get() + 1
             } else {
                 0
-            });
+            };
+            self.idle.set(idle);
+            if idle >= IDLE {
+                self.wait.set((16 << (idle - IDLE).min(4)).min(WAIT_MAX));
+            }
             st.acc.count += st.unseen;
         }
         self.finish(&mut st, out);
+    }
+
+    /// Whether this ray looks at the `max` bounds (see [`March::idle`]).
+    #[inline(always)]
+    fn look(&self) -> bool {
+        if self.idle.get() < IDLE {
+            return true;
+        }
+        let w = self.wait.get();
+        self.wait.set(w.saturating_sub(1));
+        w == 0
     }
 
     /// The ray's pixel (or partial) into `out`; the median's lists go back for the next

@@ -818,6 +818,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         lo: K::LO,
         hint: core::cell::Cell::new(None),
         idle: core::cell::Cell::new(0),
+        wait: core::cell::Cell::new(0),
         kept: core::cell::Cell::new(crate::blend::Kept::new()),
     }
 }
