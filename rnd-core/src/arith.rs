@@ -529,8 +529,8 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
             crate::simd::floor_lanes(self.simd, &mut base);
             for l in 0..N {
                 let (x, base) = (x[l], base[l]);
-                // (base + LO − origin: the same value as base + LO − origin in two
-                // steps wherever the support can be inside, |base| < 2^24.)
+                // (base + (LO − origin) in one add: the same value as the two adds
+                // (base + LO) − origin wherever the support can be inside, |base| < 2^24.)
                 let first = base + lo_off;
                 out.inside[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
                 out.first[a][l] = first;
