@@ -80,6 +80,20 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     fn d1_ref(x: f32) -> f32 {
         Self::d1::<f64>(x as f64) as f32
     }
+    /// The reference arithmetic's S weights at a sample whose fractional offset is
+    /// `al`: `k_ref(al − (LO + i))` for `i` in `0..S`, those bits exactly. A kernel may
+    /// override it with a form that, knowing `al` lies in [0, 1) for even supports (in
+    /// [−½, ½) for odd ones, as the placement makes it), skips the pieces of `k_ref` a
+    /// position can never select.
+    #[inline(always)]
+    fn ref_weights(al: f32) -> [f32; S] {
+        core::array::from_fn(|i| Self::k_ref(al - (Self::LO + i as i32) as f32))
+    }
+    /// [`Kernel::ref_weights`] of the first derivative (`d1_ref`).
+    #[inline(always)]
+    fn ref_weights_d1(al: f32) -> [f32; S] {
+        core::array::from_fn(|i| Self::d1_ref(al - (Self::LO + i as i32) as f32))
+    }
     /// Integer base index and fractional offset for index-space coordinate `x`
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
@@ -94,6 +108,33 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
         let f = r - if r > y { 1.0 } else { 0.0 };
         (crate::simd::trunc_i64(f), x - f)
     }
+}
+
+/// The reference's bspln3 piece for |x| in [0, 1): 2/3 + t²(−1 + t/2), nested as the
+/// course program nests it.
+#[inline(always)]
+fn bspln3_near(t: f32) -> f32 {
+    2.0 / 3.0 + t * t * (-1.0 + t / 2.0)
+}
+
+/// The reference's bspln3 piece for |x| in [1, 2), in u = |x| − 1.
+#[inline(always)]
+fn bspln3_far(t: f32) -> f32 {
+    let u = t - 1.0;
+    1.0 / 6.0 + u * (-0.5 + u * (0.5 - u / 6.0))
+}
+
+/// [`bspln3_near`]'s derivative (for positive x).
+#[inline(always)]
+fn bspln3_near_d1(t: f32) -> f32 {
+    t * (-2.0 + t * 1.5)
+}
+
+/// [`bspln3_far`]'s derivative (for positive x).
+#[inline(always)]
+fn bspln3_far_d1(t: f32) -> f32 {
+    let u = t - 1.0;
+    -0.5 + u * (1.0 - u / 2.0)
 }
 
 macro_rules! kernel_type {
@@ -270,12 +311,9 @@ impl Kernel<4> for Bspln3 {
         // Both pieces computed, one selected: the same operations as branching on |x|
         // for the piece used, and vectorizable across samples.
         let t = x.abs();
-        let near = 2.0 / 3.0 + t * t * (-1.0 + t / 2.0);
-        let u = t - 1.0;
-        let far = 1.0 / 6.0 + u * (-0.5 + u * (0.5 - u / 6.0));
-        let r = if t < 2.0 { far } else { 0.0 };
+        let r = if t < 2.0 { bspln3_far(t) } else { 0.0 };
         if t < 1.0 {
-            near
+            bspln3_near(t)
         } else {
             r
         }
@@ -283,16 +321,60 @@ impl Kernel<4> for Bspln3 {
     #[inline(always)]
     fn d1_ref(x: f32) -> f32 {
         let t = x.abs();
-        let near = t * (-2.0 + t * 1.5);
-        let u = t - 1.0;
-        let far = -0.5 + u * (1.0 - u / 2.0);
-        let r = if t < 2.0 { far } else { 0.0 };
-        let r = if t < 1.0 { near } else { r };
+        let r = if t < 2.0 { bspln3_far_d1(t) } else { 0.0 };
+        let r = if t < 1.0 { bspln3_near_d1(t) } else { r };
         if x < 0.0 {
             -r
         } else {
             r
         }
+    }
+    /// With `al` in [0, 1) the four positions' |x| lie in [1, 2], [0, 1), (0, 1] and
+    /// (1, 2]: each needs one piece, the second's other piece only at |x| = 1 exactly
+    /// (`al` = 0), where it is a constant. Half the arithmetic of `k_ref` four times
+    /// (the far piece's division included), the same bits (test
+    /// `bspln3_ref_weights_are_k_ref`).
+    #[inline(always)]
+    fn ref_weights(al: f32) -> [f32; 4] {
+        debug_assert!((0.0..1.0).contains(&al));
+        let (t0, t1, t2, t3) = (
+            (al + 1.0).abs(),
+            al.abs(),
+            (al - 1.0).abs(),
+            (al - 2.0).abs(),
+        );
+        [
+            if t0 < 2.0 { bspln3_far(t0) } else { 0.0 },
+            bspln3_near(t1),
+            if t2 < 1.0 {
+                bspln3_near(t2)
+            } else {
+                bspln3_far(1.0)
+            },
+            if t3 < 2.0 { bspln3_far(t3) } else { 0.0 },
+        ]
+    }
+    /// [`Kernel::ref_weights`]' shortcut for `d1_ref` (the sign is that of `x`:
+    /// positive for the first two positions, negative for the last two).
+    #[inline(always)]
+    fn ref_weights_d1(al: f32) -> [f32; 4] {
+        debug_assert!((0.0..1.0).contains(&al));
+        let (t0, t1, t2, t3) = (
+            (al + 1.0).abs(),
+            al.abs(),
+            (al - 1.0).abs(),
+            (al - 2.0).abs(),
+        );
+        [
+            if t0 < 2.0 { bspln3_far_d1(t0) } else { 0.0 },
+            bspln3_near_d1(t1),
+            -(if t2 < 1.0 {
+                bspln3_near_d1(t2)
+            } else {
+                bspln3_far_d1(1.0)
+            }),
+            -(if t3 < 2.0 { bspln3_far_d1(t3) } else { 0.0 }),
+        ]
     }
     #[inline(always)]
     fn weights(a: f64) -> [f32; 4] {
@@ -669,6 +751,42 @@ mod tests {
         }
     }
 
+    #[test]
+    fn bspln3_ref_weights_are_k_ref() {
+        // The per-position shortcut against the trait's definition (`k_ref` and `d1_ref`
+        // at al − (LO + i)), bit for bit: every float of [0, 1) within 2^16 ulps of its
+        // ends and of ½, every 97th float in between (about 11 M), so every exponent.
+        fn general<K: Kernel<4>>(al: f32) -> ([f32; 4], [f32; 4]) {
+            let x = |i: usize| al - (K::LO + i as i32) as f32;
+            (
+                core::array::from_fn(|i| K::k_ref(x(i))),
+                core::array::from_fn(|i| K::d1_ref(x(i))),
+            )
+        }
+        let check = |al: f32| {
+            let (w, d) = general::<Bspln3>(al);
+            let bits = |a: [f32; 4]| a.map(f32::to_bits);
+            assert_eq!(bits(Bspln3::ref_weights(al)), bits(w), "weights at {al:e}");
+            assert_eq!(
+                bits(Bspln3::ref_weights_d1(al)),
+                bits(d),
+                "d1 weights at {al:e}"
+            );
+        };
+        let one = 1.0f32.to_bits();
+        for d in 0..1u32 << 16 {
+            check(f32::from_bits(d));
+            check(f32::from_bits(one - 1 - d));
+            check(f32::from_bits(0.5f32.to_bits() - d));
+            check(f32::from_bits(0.5f32.to_bits() + d));
+        }
+        let mut b = 0u32;
+        while b < one {
+            check(f32::from_bits(b));
+            b += 97;
+        }
+        check(-0.0);
+    }
     #[test]
     fn spec_13_3_values() {
         let e = |k: KernelName, x, d| k.eval(x, d);

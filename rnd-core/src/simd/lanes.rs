@@ -67,38 +67,47 @@ pub(crate) fn lane_sums<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     }
     let _ = simd;
     let (sup, al) = batch.supports::<S>();
-    let (w, dw) = weights::<K, S, G>(al);
-    store(&sums_lanes::<V, S, G>(&sup, &w, &dw), out);
+    let mut w = [[[0.0f32; LANES]; S]; 3];
+    let mut dw = [[[0.0f32; LANES]; S]; 3];
+    weights::<K, S, G>(al, &mut w, &mut dw);
+    store::<G>(&sums_lanes::<V, S, G>(&sup, &w, &dw), out);
 }
 
 /// Each lane's weights (and derivative weights with `G`) per axis and support index,
-/// as [`crate::refarith::convolve`] computes them.
+/// as [`crate::refarith::convolve`] computes them ([`Kernel::ref_weights`]), into `w`
+/// (and `dw`).
 #[inline(always)]
 fn weights<K: Kernel<S>, const S: usize, const G: bool>(
     al: &[[f32; LANES]; 3],
-) -> (LaneWeights<S>, LaneWeights<S>) {
-    let mut w = [[[0.0f32; LANES]; S]; 3];
-    let mut dw = [[[0.0f32; LANES]; S]; 3];
+    w: &mut LaneWeights<S>,
+    dw: &mut LaneWeights<S>,
+) {
     for a in 0..3 {
-        for i in 0..S {
-            let c = (K::LO + i as i32) as f32;
-            for l in 0..LANES {
-                let x = al[a][l] - c;
-                w[a][i][l] = K::k_ref(x);
-                if G {
-                    dw[a][i][l] = K::d1_ref(x);
+        for l in 0..LANES {
+            let ws = K::ref_weights(al[a][l]);
+            for i in 0..S {
+                w[a][i][l] = ws[i];
+            }
+            if G {
+                let ds = K::ref_weights_d1(al[a][l]);
+                for i in 0..S {
+                    dw[a][i][l] = ds[i];
                 }
             }
         }
     }
-    (w, dw)
 }
 
-/// Lane-major sums into per-sample results.
+/// Lane-major sums into per-sample results (the value only, without `G`).
 #[inline(always)]
-fn store(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
+fn store<const G: bool>(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
     for l in 0..LANES {
-        out[l] = [r[0][l], r[1][l], r[2][l], r[3][l]];
+        out[l][0] = r[0][l];
+        if G {
+            out[l][1] = r[1][l];
+            out[l][2] = r[2][l];
+            out[l][3] = r[3][l];
+        }
     }
 }
 
@@ -113,9 +122,11 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     out: &mut [[f32; 4]; LANES],
 ) {
     let (sup, al) = batch.supports::<S>();
-    let (w, dw) = weights::<K, S, G>(al);
+    let mut w = [[[0.0f32; LANES]; S]; 3];
+    let mut dw = [[[0.0f32; LANES]; S]; 3];
+    weights::<K, S, G>(al, &mut w, &mut dw);
     // SAFETY: AVX-512F is enabled here.
-    store(&unsafe { sums4_avx512::<V, S, G>(&sup, &w, &dw) }, out);
+    store::<G>(&unsafe { sums4_avx512::<V, S, G>(&sup, &w, &dw) }, out);
 }
 
 /// [`lane_sums`] compiled for AVX2.
@@ -129,14 +140,16 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     out: &mut [[f32; 4]; LANES],
 ) {
     let (sup, al) = batch.supports::<S>();
-    let (w, dw) = weights::<K, S, G>(al);
+    let mut w = [[[0.0f32; LANES]; S]; 3];
+    let mut dw = [[[0.0f32; LANES]; S]; 3];
+    weights::<K, S, G>(al, &mut w, &mut dw);
     let sums = if S == 4 {
         // SAFETY: AVX2 is enabled here.
         unsafe { sums4_avx2::<V, S, G>(&sup, &w, &dw) }
     } else {
         sums_lanes::<V, S, G>(&sup, &w, &dw)
     };
-    store(&sums, out);
+    store::<G>(&sums, out);
 }
 
 /// The lanes' running sums (value, then the gradient's three with `G`), each term
