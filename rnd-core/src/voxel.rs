@@ -53,17 +53,18 @@ impl Voxel for f32 {
             } else {
                 (v, v)
             };
-            // `min`/`max`, not `if l < *lo { *lo = l }`: every element is stored, so
-            // the vectorized loop has no masked stores (microcoded and ~10× slower
-            // than plain ones on AMD Zen). Neither operand is NaN here, so these are
-            // the plain comparisons' results (±0 aside, which bound the same).
-            *lo = lo.min(l);
-            *hi = hi.max(h);
+            // Every element stored, the bound kept on the left (`cur < l ? cur : l`,
+            // one vminps): written as `if l < *lo { *lo = l }` the vectorized loop used
+            // masked stores, microcoded and many times slower on AMD Zen.
+            let (cl, ch) = (*lo, *hi);
+            *lo = if cl < l { cl } else { l };
+            *hi = if ch > h { ch } else { h };
         }
     }
     #[inline]
     fn merge_bounds(lo: &mut [f32], hi: &mut [f32], slo: &[f32], shi: &[f32]) {
-        // As in `widen_bounds`: unconditional stores.
+        // `min`/`max` (no NaN here): unconditional stores, as in `widen_bounds` (the
+        // select form of that loop gave masked stores here).
         for (lo, &l) in lo.iter_mut().zip(slo) {
             *lo = lo.min(l);
         }

@@ -143,7 +143,10 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     let mut w = [[[0.0f32; LANES]; S]; 3];
     let mut dw = [[[0.0f32; LANES]; S]; 3];
     weights::<K, S, G>(al, &mut w, &mut dw);
-    let sums = if S == 4 {
+    let sums = if S == 4 && G {
+        // SAFETY: AVX2 is enabled here.
+        unsafe { grad4_avx2::<V, S>(&sup, &w, &dw) }
+    } else if S == 4 {
         // SAFETY: AVX2 is enabled here.
         unsafe { sums4_avx2::<V, S, G>(&sup, &w, &dw) }
     } else {
@@ -263,6 +266,75 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
     let mut r = [[0.0f32; LANES]; 4];
     for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
         for (h, v) in v.into_iter().enumerate() {
+            // SAFETY: eight writable floats from lane 8 h on.
+            unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
+        }
+    }
+    r
+}
+
+/// [`sums4_avx2`] with the gradient, one register of eight lanes at a time: its four
+/// running sums are independent chains already, so the two registers need not be
+/// interleaved, and doing them one after the other keeps sums, rows and weights in the
+/// sixteen vector registers (interleaved, they spill). The same operations per lane.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn grad4_avx2<V: Voxel, const S: usize>(
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    assert!(S == 4 && LANES.is_multiple_of(8));
+    let LaneSupports {
+        data,
+        base,
+        s0,
+        s01,
+    } = *sup;
+    let ptr = data.as_ptr();
+    let mut r = [[0.0f32; LANES]; 4];
+    for h in 0..LANES / 8 {
+        let ld = |v: &[f32; LANES]| {
+            // SAFETY: eight readable floats from lane 8 h on.
+            unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * h)) }
+        };
+        let b: [usize; 8] = core::array::from_fn(|l| base[8 * h + l]);
+        let mut val = _mm256_setzero_ps();
+        let (mut g0, mut g1, mut g2) = (val, val, val);
+        for k in 0..S {
+            let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+            for j in 0..S {
+                let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
+                let o = j * s0 + k * s01;
+                // SAFETY: b[l] + o .. + 3 lies in the support of lane 8 h + l (checked in
+                // `Supports::new`; S is 4).
+                let row =
+                    |l: usize| unsafe { V::load4x2([ptr.add(b[l] + o), ptr.add(b[l + 4] + o)]) };
+                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
+                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
+                let x = [
+                    _mm256_shuffle_ps::<0x44>(t0, t2),
+                    _mm256_shuffle_ps::<0xEE>(t0, t2),
+                    _mm256_shuffle_ps::<0x44>(t1, t3),
+                    _mm256_shuffle_ps::<0xEE>(t1, t3),
+                ];
+                for (i, &xi) in x.iter().enumerate() {
+                    let xw0 = _mm256_mul_ps(xi, ld(&w[0][i]));
+                    let xw0w1 = _mm256_mul_ps(xw0, w1);
+                    val = _mm256_add_ps(val, _mm256_mul_ps(xw0w1, w2));
+                    let xd0 = _mm256_mul_ps(xi, ld(&dw[0][i]));
+                    g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
+                    g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
+                    g2 = _mm256_add_ps(g2, _mm256_mul_ps(xw0w1, d2));
+                }
+            }
+        }
+        for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
             // SAFETY: eight writable floats from lane 8 h on.
             unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
         }
