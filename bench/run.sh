@@ -10,6 +10,7 @@
 #        ONLY=rate bench/run.sh  (only inside samples per second against the machine's peak)
 #        ONLY=vtk bench/run.sh   (only VTK's ray caster; bench/setup-vtk.sh makes its Python)
 #        ENGINE=false bench/run.sh   (the main sections with go -ref false)
+#        MAP=0 bench/run.sh   (rendr reads the volumes into memory rather than mapping them)
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 (cd "$top" && cargo build --release -q -p rendr)
@@ -62,10 +63,13 @@ printf '#space:=rgb\n1 1 1  0 0 1  1\n' > lit.txt
 
 # Volumes: the real CT (128x128x256 short; it records no geometry, so `unu dnorm` gives
 # both programs the same identity orientation) and a 256^3 synthetic float (raw, so
-# decompression does not dominate the timings).
-teem-unu dnorm -i "$CT" -o ct.nrrd
-CT=ct.nrrd
-"$R" sdg -w 12 -sz 256 256 256 -l 256 256 256 -o - | teem-unu save -f nrrd -e raw -o syn.nrrd
+# decompression does not dominate the timings), each a detached header (.nhdr) beside
+# its raw data, as large volumes are often kept: rendr maps such data in place (set
+# MAP=0 to have it read them into memory, as Teem does).
+teem-unu dnorm -i "$CT" -o ct.nhdr
+CT=ct.nhdr
+"$R" sdg -w 12 -sz 256 256 256 -l 256 256 256 -o - | teem-unu save -f nrrd -e raw -o syn.nhdr
+if [ "${MAP:-1}" = 0 ]; then export RENDR_MMAP=0; fi
 # Orthographic cameras, image-plane extent 260 x 260 (world units) at distance 400.
 fov=$(awk 'BEGIN { print 2 * atan2(130, 400) * 180 / 3.14159265358979 }')
 SZ=${SZ:-256}
@@ -77,7 +81,7 @@ declare -A AT=( [ct]="63.5 63.5 127.5" [syn]="0 0 0" )
 # Fail loudly rather than time an error.
 teem-mrender -i "$CT" -k scalar -fr 63.5 -336.5 127.5 -at 63.5 63.5 127.5 -up 0 0 1 -or -ar \
   -dn -130 -di 0 -df 130 -ur -130 130 -vr -130 130 -is 8 8 -q v -m max -step 1 -o check.nrrd
-declare -A VOL=( [ct]="$CT" [syn]="syn.nrrd" )
+declare -A VOL=( [ct]="$CT" [syn]="syn.nhdr" )
 echo "## Machine"
 echo
 echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"

@@ -13,6 +13,7 @@ pub mod error;
 pub mod files;
 pub mod formats;
 pub mod image_out;
+mod mapped;
 pub mod nrrd;
 pub mod output;
 pub mod parallel;

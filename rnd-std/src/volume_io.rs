@@ -5,6 +5,7 @@
 //! format of [`crate::formats`] is read (NRRD, NIfTI, MetaImage, DICOM).
 
 use std::path::Path;
+use std::sync::Arc;
 
 use rnd_core::affine::Affine4;
 use rnd_core::brick::Brick;
@@ -12,6 +13,7 @@ use rnd_core::render::AnyVolume;
 use rnd_core::volume::{OwnedVolume, Volume};
 
 use crate::formats::Format;
+use crate::mapped::Mapping;
 use crate::nrrd::{self, Centering, Data, Nrrd};
 use crate::{Error, Result};
 
@@ -33,11 +35,48 @@ pub enum Samples<'a> {
     I16(&'a [i16]),
 }
 
-/// The checked samples and geometry of a [`VolumeBuf`].
-#[derive(Debug, Clone, PartialEq)]
+/// The checked samples and geometry of a [`VolumeBuf`]: owned, or used in place from a
+/// map of the file (the view's slice lies in the map, which the `Arc` keeps; the
+/// `'static` lifetime never leaves this module: [`VolumeBuf::view`] lends it for as long
+/// as the `VolumeBuf` is borrowed).
+#[derive(Debug, Clone)]
 enum Voxels {
     F32(OwnedVolume<f32>),
     I16(OwnedVolume<i16>),
+    /// (The map is only kept, for the slice in the view.)
+    MappedF32 {
+        vol: Volume<'static, f32>,
+        _map: Arc<Mapping>,
+    },
+    MappedI16 {
+        vol: Volume<'static, i16>,
+        _map: Arc<Mapping>,
+    },
+}
+
+impl PartialEq for Voxels {
+    /// The same samples, sizes and geometry, however they are held.
+    fn eq(&self, o: &Voxels) -> bool {
+        fn same<V: rnd_core::voxel::Voxel + PartialEq>(a: Volume<'_, V>, b: Volume<'_, V>) -> bool {
+            a.sizes() == b.sizes() && a.itow() == b.itow() && a.data() == b.data()
+        }
+        match (self.view(), o.view()) {
+            (AnyVolume::F32(a), AnyVolume::F32(b)) => same(a, b),
+            (AnyVolume::I16(a), AnyVolume::I16(b)) => same(a, b),
+            _ => false,
+        }
+    }
+}
+
+impl Voxels {
+    fn view(&self) -> AnyVolume<'_> {
+        match self {
+            Voxels::F32(v) => AnyVolume::F32(v.view()),
+            Voxels::I16(v) => AnyVolume::I16(v.view()),
+            Voxels::MappedF32 { vol, .. } => AnyVolume::F32(*vol),
+            Voxels::MappedI16 { vol, .. } => AnyVolume::I16(*vol),
+        }
+    }
 }
 
 /// A loaded volume: samples, sizes, geometry and what was done to make it renderable.
@@ -88,18 +127,24 @@ impl VolumeBuf {
 
     /// Borrowed view for rendering and probing.
     pub fn view(&self) -> AnyVolume<'_> {
-        match &self.vox {
-            Voxels::F32(v) => AnyVolume::F32(v.view()),
-            Voxels::I16(v) => AnyVolume::I16(v.view()),
-        }
+        self.vox.view()
     }
 
     /// The samples, fast axis first.
     pub fn data(&self) -> Samples<'_> {
-        match &self.vox {
-            Voxels::F32(v) => Samples::F32(v.data()),
-            Voxels::I16(v) => Samples::I16(v.data()),
+        match self.view() {
+            AnyVolume::F32(v) => Samples::F32(v.data()),
+            AnyVolume::I16(v) => Samples::I16(v.data()),
         }
+    }
+
+    /// Whether the samples are used in place from a map of the file
+    /// ([`load_volume_mapped`]) rather than held in memory.
+    pub fn is_mapped(&self) -> bool {
+        matches!(
+            self.vox,
+            Voxels::MappedF32 { .. } | Voxels::MappedI16 { .. }
+        )
     }
 
     /// Sizes, fast axis first.
@@ -114,9 +159,9 @@ impl VolumeBuf {
 
     /// Voxel type name: `real` (f32) or `short`.
     pub fn type_name(&self) -> &'static str {
-        match self.vox {
-            Voxels::F32(_) => "real",
-            Voxels::I16(_) => "short",
+        match self.view() {
+            AnyVolume::F32(_) => "real",
+            AnyVolume::I16(_) => "short",
         }
     }
 
@@ -156,6 +201,57 @@ pub fn load_volume_threads(path: &Path, threads: usize) -> Result<VolumeBuf> {
     v.format = l.format;
     v.notes.splice(0..0, l.notes);
     Ok(v)
+}
+
+/// [`load_volume_threads`], except that a NRRD file whose samples are raw `float` or
+/// `short` in this machine's byte order (at an offset aligned for the type) is used in
+/// place through a read-only memory map: no copy and no memory to fill, so a large
+/// volume is ready at once. Other files are read as [`load_volume_threads`] reads them;
+/// the volume is the same either way ([`VolumeBuf::is_mapped`] tells which).
+///
+/// A map shows the file as it is while the volume is in use: change the file meanwhile
+/// and the samples change; cut it short and the process stops (`SIGBUS`). Use
+/// [`load_volume_threads`] for files that may change while they are rendered.
+///
+/// # Errors
+/// As [`load_volume`].
+pub fn load_volume_mapped(path: &Path, threads: usize) -> Result<VolumeBuf> {
+    if path.as_os_str() != "-" && std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        if let Some((header, map)) = nrrd::read::map_raw(path)? {
+            return mapped_volume(&header, map).map_err(|e| e.with_path(path));
+        }
+    }
+    load_volume_threads(path, threads)
+}
+
+/// The volume of a NRRD header whose samples are `map`.
+fn mapped_volume(h: &nrrd::Header, map: Arc<Mapping>) -> Result<VolumeBuf> {
+    let Geometry { sizes, itow, notes } = geometry(h)?;
+    let unaligned = || Error::msg("the mapped samples are not aligned for their type");
+    // (Each slice is kept only in `Voxels`, beside the `map` it lies in, and lent out
+    // only for as long as the `Voxels` is borrowed.)
+    let vox = if h.scalar == nrrd::ScalarType::I16 {
+        // SAFETY: see above.
+        let d = unsafe { crate::mapped::samples::<i16>(&map) }.ok_or_else(unaligned)?;
+        Voxels::MappedI16 {
+            vol: Volume::new(d, sizes, itow)?,
+            _map: map,
+        }
+    } else {
+        // SAFETY: see above.
+        let d = unsafe { crate::mapped::samples::<f32>(&map) }.ok_or_else(unaligned)?;
+        Voxels::MappedF32 {
+            vol: Volume::new(d, sizes, itow)?,
+            _map: map,
+        }
+    };
+    Ok(VolumeBuf {
+        vox,
+        file_type: h.scalar.as_str().to_string(),
+        space: h.space.clone(),
+        notes,
+        format: Format::Nrrd,
+    })
 }
 
 /// The part of a volume one process of a bricked render holds: the samples of `region`
@@ -267,7 +363,46 @@ pub fn load_volume_region(
 /// converting the samples needs more memory than there is.
 #[allow(clippy::unnecessary_cast)] // each_data! covers f32 and f64 too
 pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
-    let h = &n.header;
+    let Geometry {
+        sizes,
+        itow,
+        mut notes,
+    } = geometry(&n.header)?;
+    let data = match n.data {
+        Data::I16(v) => VolumeData::I16(v),
+        Data::F32(v) => VolumeData::F32(v),
+        other => {
+            notes.push(format!(
+                "{} samples converted to float",
+                other.scalar_type()
+            ));
+            // The float copy exists beside the file's samples for a moment.
+            let need = (other.len() as u64).saturating_mul(4);
+            crate::check_memory(need, "converting the samples to float")?;
+            let mut v: Vec<f32> = Vec::new();
+            crate::try_reserve(&mut v, other.len(), "the float samples")?;
+            crate::nrrd::each_data!(&other, src => v.extend(src.iter().map(|&x| x as f32)));
+            VolumeData::F32(v)
+        }
+    };
+    let mut vb = VolumeBuf::new(data, sizes, itow)?;
+    vb.file_type = n.header.scalar.as_str().to_string();
+    vb.space = n.header.space.clone();
+    vb.notes = notes;
+    Ok(vb)
+}
+
+/// What a NRRD header says of a volume: its sizes, index-to-world and the decisions
+/// made to read it as one.
+struct Geometry {
+    sizes: [usize; 3],
+    itow: Affine4,
+    notes: Vec<String>,
+}
+
+/// The [`Geometry`] of the volume a NRRD header describes (the checks of
+/// [`volume_from_nrrd`] that need no samples).
+fn geometry(h: &nrrd::Header) -> Result<Geometry> {
     let mut notes = Vec::new();
     let mut sizes = h.sizes.clone();
     let mut axis_off = 0usize;
@@ -289,7 +424,6 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
         )));
     }
     let sizes = [sizes[0], sizes[1], sizes[2]];
-    let file_type = h.scalar.as_str().to_string();
     // Geometry.
     let sd = h.space_dim();
     let cent: Vec<Centering> = (0..3).map(|a| nrrd::centering(h, a + axis_off)).collect();
@@ -382,27 +516,5 @@ pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
             "node-centred axes: samples are taken at the nodes (same index-to-world)".to_string(),
         );
     }
-    let data = match n.data {
-        Data::I16(v) => VolumeData::I16(v),
-        Data::F32(v) => VolumeData::F32(v),
-        other => {
-            notes.push(format!(
-                "{} samples converted to float",
-                other.scalar_type()
-            ));
-            // The float copy exists beside the file's samples for a moment.
-            let need = (other.len() as u64).saturating_mul(4);
-            crate::check_memory(need, "converting the samples to float")?;
-            let mut v: Vec<f32> = Vec::new();
-            crate::try_reserve(&mut v, other.len(), "the float samples")?;
-            crate::nrrd::each_data!(&other, src => v.extend(src.iter().map(|&x| x as f32)));
-            VolumeData::F32(v)
-        }
-    };
-    let space = h.space.clone();
-    let mut vb = VolumeBuf::new(data, sizes, itow)?;
-    vb.file_type = file_type;
-    vb.space = space;
-    vb.notes = notes;
-    Ok(vb)
+    Ok(Geometry { sizes, itow, notes })
 }

@@ -331,3 +331,146 @@ fn threaded_raw_read_equals_one_thread() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `bytes` (a NRRD with attached data) with a comment line after the magic that puts
+/// the data's offset at `r` modulo 8.
+fn data_at(bytes: &[u8], r: usize) -> Vec<u8> {
+    let off = bytes.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+    // A comment line "#" + k spaces + "\n" adds k + 2 bytes.
+    let k = (r + 16 - (off + 2) % 8) % 8;
+    let mut out = b"NRRD0004\n#".to_vec();
+    out.extend(std::iter::repeat_n(b' ', k));
+    out.push(b'\n');
+    out.extend_from_slice(&bytes[9..]);
+    assert_eq!(
+        (out.windows(2).position(|w| w == b"\n\n").unwrap() + 2) % 8,
+        r
+    );
+    out
+}
+
+/// Volumes used in place from a map of the file equal the ones read into memory (same
+/// samples, sizes, geometry, notes and type), for float and short data at aligned
+/// offsets, attached, detached and after a byte skip; everything else (unaligned data,
+/// the other byte order, gzip, other types) is read, and a file too short for its sizes
+/// gives the same error either way.
+#[test]
+fn mapped_volumes_equal_read_ones() {
+    fn parts(
+        v: &rnd_std::volume_io::VolumeBuf,
+    ) -> (
+        rnd_std::volume_io::Samples<'_>,
+        [usize; 3],
+        rnd_core::affine::Affine4,
+    ) {
+        (v.data(), v.sizes(), v.itow())
+    }
+    use rnd_core::affine::Affine4;
+    use rnd_std::volume_io::{load_volume_mapped, load_volume_threads, VolumeBuf, VolumeData};
+    let dir = rnd_tests::tmpdir("mapped");
+    let sizes = [5, 6, 7];
+    let itow = Affine4::from_columns(
+        [0.5, 0.0, 0.0],
+        [0.0, 2.0, 0.0],
+        [0.0, 0.1, 1.0],
+        [1.0, 2.0, 3.0],
+    );
+    let f: Vec<f32> = (0..210).map(|i| (i as f32 * 0.37).sin() * 100.0).collect();
+    let s: Vec<i16> = (0..210).map(|i| (i * 311 % 65536 - 32768) as i16).collect();
+    let le = WriteOptions {
+        encoding: Encoding::Raw,
+        endian: Endian::Little,
+    };
+    for data in [VolumeData::F32(f), VolumeData::I16(s)] {
+        let size = if matches!(data, VolumeData::F32(_)) {
+            4
+        } else {
+            2
+        };
+        let vb = VolumeBuf::new(data, sizes, itow).unwrap();
+        let n = nrrd::volume_nrrd(&vb).unwrap();
+        let file = |name: &str, bytes: &[u8]| {
+            let p = dir.join(format!("{size}-{name}"));
+            std::fs::write(&p, bytes).unwrap();
+            p
+        };
+        let bytes_with = |opt: WriteOptions| {
+            let mut b = Vec::new();
+            nrrd::write_to(&n, opt, &mut b).unwrap();
+            b
+        };
+        let raw = bytes_with(le);
+        let mut cases = vec![
+            (file("aligned.nrrd", &data_at(&raw, 0)), true),
+            (file("half.nrrd", &data_at(&raw, 2)), size == 2),
+            (file("odd.nrrd", &data_at(&raw, 3)), false),
+            (
+                file(
+                    "big.nrrd",
+                    &data_at(
+                        &bytes_with(WriteOptions {
+                            endian: Endian::Big,
+                            ..le
+                        }),
+                        0,
+                    ),
+                ),
+                false,
+            ),
+            (
+                file(
+                    "gzip.nrrd",
+                    &data_at(
+                        &bytes_with(WriteOptions {
+                            encoding: Encoding::Gzip,
+                            ..le
+                        }),
+                        0,
+                    ),
+                ),
+                false,
+            ),
+        ];
+        // A byte skip line (13 bytes) and 5 skipped bytes after a header whose data would
+        // start at 6 mod 8: the data at 0 mod 8.
+        let base = data_at(&raw, 6);
+        let cut = base.windows(2).position(|w| w == b"\n\n").unwrap() + 1;
+        let mut skipped = base[..cut].to_vec();
+        skipped.extend_from_slice(b"byte skip: 5\n\n12345");
+        skipped.extend_from_slice(&base[cut + 1..]);
+        cases.push((file("skip.nrrd", &skipped), true));
+        // Detached: data from offset 0 of its own file.
+        let head_end = raw.windows(2).position(|w| w == b"\n\n").unwrap() + 1;
+        let name = format!("{size}-det.raw");
+        let mut head = raw[..head_end].to_vec();
+        head.extend_from_slice(format!("data file: {name}\n").as_bytes());
+        std::fs::write(dir.join(&name), &raw[head_end + 1..]).unwrap();
+        cases.push((file("det.nhdr", &head), true));
+        for (p, mapped) in &cases {
+            let read = load_volume_threads(p, 1).unwrap();
+            let m = load_volume_mapped(p, 1).unwrap();
+            assert!(!read.is_mapped());
+            assert_eq!(m.is_mapped(), *mapped, "{}", p.display());
+            assert_eq!(m, read, "{}", p.display());
+            assert_eq!(parts(&m), parts(&vb), "{}", p.display());
+            assert_eq!(
+                (&m.notes, &m.file_type, &m.space),
+                (&read.notes, &read.file_type, &read.space)
+            );
+            // A clone keeps the map after the original goes.
+            let c = m.clone();
+            drop(m);
+            assert_eq!(parts(&c), parts(&vb));
+        }
+        // Too short for its sizes: the same error, mapped or read.
+        let short = data_at(&raw, 0);
+        let p = file("short.nrrd", &short[..short.len() - 3]);
+        let (a, b) = (
+            load_volume_threads(&p, 1).unwrap_err(),
+            load_volume_mapped(&p, 1).unwrap_err(),
+        );
+        assert_eq!(a.to_string(), b.to_string());
+        assert!(a.to_string().contains("truncated"), "{a}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

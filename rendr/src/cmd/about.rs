@@ -34,7 +34,8 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          with -ref false, geometry in f64 and convolution and blending in f32.\n\
          Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.\n\
          Vector paths in use: {} (same images with any; RND_AVX2=0 or RND_AVX512=0\n\
-         turn the wider ones off).",
+         turn the wider ones off). Raw NRRD volumes are mapped, not copied\n\
+         (RENDR_MMAP=0 reads them into memory).",
         env!("CARGO_PKG_VERSION"),
         if cfg!(debug_assertions) {
             "debug"

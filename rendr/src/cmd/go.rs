@@ -189,7 +189,10 @@ pub static SPEC: CmdSpec = CmdSpec {
            casting every ray's stretch inside it; the partials are composited in ray \
            order and process 0 writes the image: max, min and median give the image of \
            one process bit for bit, sum, mean and over the same up to float rounding \
-           (docs/SCALING.md); -db is refused there (run it without mpirun).",
+           (docs/SCALING.md); -db is refused there (run it without mpirun).\n\
+           A NRRD whose samples are raw float or short in this machine's byte order is \
+           used in place through a memory map of the file (no copy): do not change the \
+           file while it renders, or set RENDR_MMAP=0 to read it into memory instead.",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
@@ -493,12 +496,24 @@ impl VolumeCache {
             }
         }
         self.last = None;
-        let v = std::rc::Rc::new(rnd_std::volume_io::load_volume_threads(path, threads)?);
+        let v = std::rc::Rc::new(load_volume(path, threads)?);
         if path.as_os_str() != "-" {
             self.last = Some((path.to_path_buf(), v.clone()));
         }
         Ok(v)
     }
+}
+
+/// The volume in `path` for rendering (go, turn, view): raw NRRD samples used in place
+/// from a map of the file where they can be (`load_volume_mapped`), unless the
+/// environment says `RENDR_MMAP=0` (then every file is read into memory).
+pub fn load_volume(path: &Path, threads: usize) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
+    let read = std::env::var_os("RENDR_MMAP").is_some_and(|v| v == "0");
+    Ok(if read {
+        rnd_std::volume_io::load_volume_threads(path, threads)?
+    } else {
+        rnd_std::volume_io::load_volume_mapped(path, threads)?
+    })
 }
 
 /// The render parameters, kernel and thread count the options of `a` ask for (the

@@ -265,8 +265,7 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
             .context("-n")?;
     }
     let (lut, lev, lights) = super::go::classification(a)?;
-    let vol = rnd_std::volume_io::load_volume_threads(Path::new(&input), threads)
-        .with_context(|| input.clone())?;
+    let vol = super::go::load_volume(Path::new(&input), threads).with_context(|| input.clone())?;
     let mut frames: Vec<Option<Frame>> = Vec::with_capacity(n);
     let mut colour = PngColor::Rgb;
     for (i, cam) in cams.iter().enumerate() {

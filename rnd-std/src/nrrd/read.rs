@@ -247,6 +247,46 @@ fn read_streaming(path: &Path, threads: usize) -> Result<Option<Nrrd>> {
     })
 }
 
+/// The header and a map of the samples of the NRRD in `path` when they can be used in
+/// place: raw `float` or `short` data in this machine's byte order, in one regular
+/// file (attached, or a detached header's one data file), at an offset aligned for the
+/// type. `None` for anything else, or when the system maps nothing (read the file then).
+/// The same checks as [`read`] (header, skips, the data's length) and the same errors.
+pub(crate) fn map_raw(
+    path: &Path,
+) -> Result<Option<(Header, std::sync::Arc<crate::mapped::Mapping>)>> {
+    let native = if cfg!(target_endian = "little") {
+        Endian::Little
+    } else {
+        Endian::Big
+    };
+    let found = read_streaming_with(path, |mut r, parsed, p| {
+        if parsed.encoding != Encoding::Raw
+            || !matches!(parsed.scalar, ScalarType::F32 | ScalarType::I16)
+            || parsed.endian != native
+        {
+            return Ok(None);
+        }
+        let file_len = r.get_ref().metadata().map(|m| m.len()).unwrap_or(u64::MAX);
+        let (_, nbytes) = data_size(&parsed)?;
+        to_data(&mut r, &parsed, file_len, nbytes, p)?;
+        let off = {
+            use std::io::Seek;
+            r.stream_position()
+                .map_err(|e| Error::io(p, "can't read", e))?
+        };
+        if !off.is_multiple_of(parsed.scalar.size() as u64) {
+            return Ok(None);
+        }
+        let Some(m) = crate::mapped::Mapping::new(r.get_ref(), off, nbytes) else {
+            return Ok(None);
+        };
+        let Parsed { header, .. } = parsed;
+        Ok(Some((header, std::sync::Arc::new(m))))
+    });
+    found.map_err(|e| e.with_path(path))
+}
+
 /// [`read_streaming`]'s file handling around `data`, which reads the data from the
 /// reader (positioned at the data's start, before the skips) and the parsed header.
 fn read_streaming_with<T>(
