@@ -3,6 +3,8 @@
 //! [`crate::refarith::convolve`] for its sample (so the same bits), and the lanes' chains
 //! of S³ dependent additions are independent, so they fill the vector registers.
 
+use core::mem::MaybeUninit;
+
 use crate::kernel::Kernel;
 use crate::voxel::Voxel;
 
@@ -66,36 +68,52 @@ pub(crate) fn lane_sums<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
         return unsafe { with_avx2::<V, K, S, G>(batch, out) };
     }
     let _ = simd;
-    let (sup, al) = batch.supports::<S>();
-    let mut w = [[[0.0f32; LANES]; S]; 3];
-    let mut dw = [[[0.0f32; LANES]; S]; 3];
-    weights::<K, S, G>(al, &mut w, &mut dw);
-    store::<G>(&sums_lanes::<V, S, G>(&sup, &w, &dw), out);
+    with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
+        store::<G>(&sums_lanes::<V, S, G>(sup, w, dw), out)
+    })
 }
 
-/// Each lane's weights (and derivative weights with `G`) per axis and support index,
-/// as [`crate::refarith::convolve`] computes them ([`Kernel::ref_weights`]), into `w`
-/// (and `dw`).
+/// Weights being filled: every element written before the array is read.
+type LaneWeightsUninit<const S: usize> = [[[MaybeUninit<f32>; LANES]; S]; 3];
+
+/// `f` of the batch's checked supports and each lane's weights per axis and support
+/// index (`w`), and derivative weights (`dw`; with `G` only, else `w` again), as
+/// [`crate::refarith::convolve`] computes them ([`Kernel::ref_weights`]). The arrays
+/// are filled in place, never zeroed first, and lent to `f` (no copies).
 #[inline(always)]
-fn weights<K: Kernel<S>, const S: usize, const G: bool>(
-    al: &[[f32; LANES]; 3],
-    w: &mut LaneWeights<S>,
-    dw: &mut LaneWeights<S>,
-) {
+fn with_weights<V: Voxel, K: Kernel<S>, const S: usize, const G: bool, R>(
+    batch: LaneBatch<'_, V>,
+    f: impl FnOnce(&LaneSupports<'_, V, S>, &LaneWeights<S>, &LaneWeights<S>) -> R,
+) -> R {
+    let (sup, al) = batch.supports::<S>();
+    let mut w: LaneWeightsUninit<S> = [[[MaybeUninit::uninit(); LANES]; S]; 3];
+    let mut dw: LaneWeightsUninit<S> = [[[MaybeUninit::uninit(); LANES]; S]; 3];
     for a in 0..3 {
         for l in 0..LANES {
             let ws = K::ref_weights(al[a][l]);
             for i in 0..S {
-                w[a][i][l] = ws[i];
+                w[a][i][l].write(ws[i]);
             }
             if G {
                 let ds = K::ref_weights_d1(al[a][l]);
                 for i in 0..S {
-                    dw[a][i][l] = ds[i];
+                    dw[a][i][l].write(ds[i]);
                 }
             }
         }
     }
+    // SAFETY: the loops above wrote every element of `w` (and of `dw` with `G`), and
+    // `MaybeUninit<f32>` has the layout of `f32`, so the arrays are their f32 arrays.
+    let (w, dw) = unsafe {
+        let w = &*(&w as *const LaneWeightsUninit<S> as *const LaneWeights<S>);
+        let dw = if G {
+            &*(&dw as *const LaneWeightsUninit<S> as *const LaneWeights<S>)
+        } else {
+            w
+        };
+        (w, dw)
+    };
+    f(&sup, w, dw)
 }
 
 /// Lane-major sums into per-sample results (the value only, without `G`).
@@ -121,12 +139,10 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
     out: &mut [[f32; 4]; LANES],
 ) {
-    let (sup, al) = batch.supports::<S>();
-    let mut w = [[[0.0f32; LANES]; S]; 3];
-    let mut dw = [[[0.0f32; LANES]; S]; 3];
-    weights::<K, S, G>(al, &mut w, &mut dw);
-    // SAFETY: AVX-512F is enabled here.
-    store::<G>(&unsafe { sums4_avx512::<V, S, G>(&sup, &w, &dw) }, out);
+    with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
+        // SAFETY: AVX-512F is enabled here.
+        store::<G>(&unsafe { sums4_avx512::<V, S, G>(sup, w, dw) }, out)
+    })
 }
 
 /// [`lane_sums`] compiled for AVX2.
@@ -139,20 +155,18 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
     out: &mut [[f32; 4]; LANES],
 ) {
-    let (sup, al) = batch.supports::<S>();
-    let mut w = [[[0.0f32; LANES]; S]; 3];
-    let mut dw = [[[0.0f32; LANES]; S]; 3];
-    weights::<K, S, G>(al, &mut w, &mut dw);
-    let sums = if S == 4 && G {
-        // SAFETY: AVX2 is enabled here.
-        unsafe { grad4_avx2::<V, S>(&sup, &w, &dw) }
-    } else if S == 4 {
-        // SAFETY: AVX2 is enabled here.
-        unsafe { sums4_avx2::<V, S, G>(&sup, &w, &dw) }
-    } else {
-        sums_lanes::<V, S, G>(&sup, &w, &dw)
-    };
-    store::<G>(&sums, out);
+    with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
+        let sums = if S == 4 && G {
+            // SAFETY: AVX2 is enabled here.
+            unsafe { grad4_avx2::<V, S>(sup, w, dw) }
+        } else if S == 4 {
+            // SAFETY: AVX2 is enabled here.
+            unsafe { value4_avx2::<V, S>(sup, w) }
+        } else {
+            sums_lanes::<V, S, G>(sup, w, dw)
+        };
+        store::<G>(&sums, out)
+    })
 }
 
 /// The lanes' running sums (value, then the gradient's three with `G`), each term
@@ -192,22 +206,50 @@ fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
     r
 }
 
-/// [`sums_lanes`] for support 4 with AVX2: each lane's row of four voxels is one load
-/// (two lanes per register, see `Load::load4x2`), a 4 × 4 transpose in each 128-bit
-/// half turns rows into lanes, and the arithmetic is the same per lane.
+/// Row `o` (offset from each support's first voxel) of the eight supports starting at
+/// `b`, as four registers of eight lanes (register i holds voxel i of each lane's row):
+/// each lane's row of four voxels is one load (two lanes per register, see
+/// `Load::load4x2`), and a 4 × 4 transpose in each 128-bit half turns rows into lanes.
+///
+/// # Safety
+/// The CPU must support AVX2, and `b[l] + o .. + 3` must lie inside the data at `ptr`
+/// for every lane l.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn rows8<V: Voxel>(
+    ptr: *const V,
+    b: &[usize; 8],
+    o: usize,
+) -> [core::arch::x86_64::__m256; 4] {
+    use core::arch::x86_64::*;
+    // SAFETY: each row lies inside the data (caller); AVX2 is enabled here.
+    let row = |l: usize| unsafe { V::load4x2([ptr.add(b[l] + o), ptr.add(b[l + 4] + o)]) };
+    let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
+    let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
+    let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
+    [
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+    ]
+}
+
+/// [`sums_lanes`]'s value sums for support 4 with AVX2, rows into lanes by [`rows8`]:
+/// the same operations per lane. The two registers of eight lanes are interleaved:
+/// their chains are independent, so the additions of one hide the latency of the
+/// other's.
 ///
 /// # Safety
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
+unsafe fn value4_avx2<V: Voxel, const S: usize>(
     sup: &LaneSupports<'_, V, S>,
     w: &LaneWeights<S>,
-    dw: &LaneWeights<S>,
 ) -> [[f32; LANES]; 4] {
     use core::arch::x86_64::*;
-    // Registers of eight lanes each; their chains are independent, so with two the
-    // additions of one hide the latency of the other's.
     const H: usize = LANES / 8;
     assert!(S == 4 && LANES.is_multiple_of(8));
     let LaneSupports {
@@ -221,59 +263,32 @@ unsafe fn sums4_avx2<V: Voxel, const S: usize, const G: bool>(
         // SAFETY: eight readable floats from lane 8 h on.
         unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * h)) }
     };
-    let zero = _mm256_setzero_ps();
-    let mut val = [zero; H];
-    let (mut g0, mut g1, mut g2) = ([zero; H], [zero; H], [zero; H]);
+    let b: [[usize; 8]; H] = core::array::from_fn(|h| core::array::from_fn(|l| base[8 * h + l]));
+    let mut val = [_mm256_setzero_ps(); H];
     for k in 0..S {
         for j in 0..S {
             let o = j * s0 + k * s01;
-            // Rows of lanes l and l + 4 of register h, transposed into lanes.
-            let x: [[__m256; 4]; H] = core::array::from_fn(|h| {
-                // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
-                // `Supports::new`; S is 4).
-                let row = |l: usize| unsafe {
-                    V::load4x2([
-                        ptr.add(base[8 * h + l] + o),
-                        ptr.add(base[8 * h + l + 4] + o),
-                    ])
-                };
-                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
-                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
-                [
-                    _mm256_shuffle_ps::<0x44>(t0, t2),
-                    _mm256_shuffle_ps::<0xEE>(t0, t2),
-                    _mm256_shuffle_ps::<0x44>(t1, t3),
-                    _mm256_shuffle_ps::<0xEE>(t1, t3),
-                ]
-            });
+            // SAFETY: b[h][l] + o .. + 3 lies in the support of lane 8 h + l (checked in
+            // `Supports::new`; S is 4); AVX2 is enabled here.
+            let x: [[__m256; 4]; H] = core::array::from_fn(|h| unsafe { rows8(ptr, &b[h], o) });
             for i in 0..S {
                 for h in 0..H {
                     let (w1, w2) = (ld(&w[1][j], h), ld(&w[2][k], h));
                     let xw0 = _mm256_mul_ps(x[h][i], ld(&w[0][i], h));
                     val[h] = _mm256_add_ps(val[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2));
-                    if G {
-                        let (d1, d2) = (ld(&dw[1][j], h), ld(&dw[2][k], h));
-                        let xd0 = _mm256_mul_ps(x[h][i], ld(&dw[0][i], h));
-                        g0[h] = _mm256_add_ps(g0[h], _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
-                        g1[h] = _mm256_add_ps(g1[h], _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
-                        g2[h] = _mm256_add_ps(g2[h], _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2));
-                    }
                 }
             }
         }
     }
     let mut r = [[0.0f32; LANES]; 4];
-    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
-        for (h, v) in v.into_iter().enumerate() {
-            // SAFETY: eight writable floats from lane 8 h on.
-            unsafe { _mm256_storeu_ps(dst.as_mut_ptr().add(8 * h), v) };
-        }
+    for (h, v) in val.into_iter().enumerate() {
+        // SAFETY: eight writable floats from lane 8 h on.
+        unsafe { _mm256_storeu_ps(r[0].as_mut_ptr().add(8 * h), v) };
     }
     r
 }
 
-/// [`sums4_avx2`] with the gradient, one register of eight lanes at a time: its four
+/// [`value4_avx2`] with the gradient, one register of eight lanes at a time: its four
 /// running sums are independent chains already, so the two registers need not be
 /// interleaved, and doing them one after the other keeps sums, rows and weights in the
 /// sixteen vector registers (interleaved, they spill). The same operations per lane.
@@ -311,18 +326,8 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize>(
                 let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
                 let o = j * s0 + k * s01;
                 // SAFETY: b[l] + o .. + 3 lies in the support of lane 8 h + l (checked in
-                // `Supports::new`; S is 4).
-                let row =
-                    |l: usize| unsafe { V::load4x2([ptr.add(b[l] + o), ptr.add(b[l + 4] + o)]) };
-                let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-                let (t0, t1) = (_mm256_unpacklo_ps(a0, a1), _mm256_unpackhi_ps(a0, a1));
-                let (t2, t3) = (_mm256_unpacklo_ps(a2, a3), _mm256_unpackhi_ps(a2, a3));
-                let x = [
-                    _mm256_shuffle_ps::<0x44>(t0, t2),
-                    _mm256_shuffle_ps::<0xEE>(t0, t2),
-                    _mm256_shuffle_ps::<0x44>(t1, t3),
-                    _mm256_shuffle_ps::<0xEE>(t1, t3),
-                ];
+                // `Supports::new`; S is 4); AVX2 is enabled here.
+                let x = unsafe { rows8(ptr, &b, o) };
                 for (i, &xi) in x.iter().enumerate() {
                     let xw0 = _mm256_mul_ps(xi, ld(&w[0][i]));
                     let xw0w1 = _mm256_mul_ps(xw0, w1);
@@ -342,7 +347,7 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize>(
     r
 }
 
-/// [`sums4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
+/// [`value4_avx2`] and [`grad4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
 /// rows each (lanes l, l + 4, l + 8 and l + 12 in the four 128-bit parts, see
 /// `Load::load4x4`) and a 4 × 4 transpose in each part give each row element for all
 /// lanes in order; the arithmetic per lane is [`sums_lanes`]'s.
