@@ -508,8 +508,8 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         let mut out = Lanes3 {
             first: [[0.0; N]; 3],
             frac: [[0.0; N]; 3],
-            inside: [[false; N]; 3],
-            past: [false; N],
+            inside: [1; N],
+            past: [0; N],
         };
         for a in 0..3 {
             let (top, lo_off) = (self.top[a], self.lo_off[a]);
@@ -532,26 +532,28 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
                 // (base + (LO − origin) in one add: the same value as the two adds
                 // (base + LO) − origin wherever the support can be inside, |base| < 2^24.)
                 let first = base + lo_off;
-                out.inside[a][l] = (first >= 0.0) & (first + (S as f32 - 1.0) <= top);
+                out.inside[l] &= u32::from((first >= 0.0) & (first + (S as f32 - 1.0) <= top));
                 out.first[a][l] = first;
                 out.frac[a][l] = x - base;
             }
         }
         for l in 0..N {
-            out.past[l] = -pv[2][l] > cam.fcv;
+            out.past[l] = u32::from(-pv[2][l] > cam.fcv);
         }
         out
     }
 }
 
 /// The reference placement of `N` samples in lanes: per axis the first support index
-/// relative to the samples held (an integer in f32, exact where inside), the fractional
-/// offset and whether the support is inside; whether each sample is past the far plane.
+/// relative to the samples held (an integer in f32, exact where inside) and the
+/// fractional offset; whether the support is inside on every axis and whether the
+/// sample is past the far plane (1 or 0: whole lanes, which stay vectors, where bools
+/// would be packed to bytes).
 struct Lanes3<const N: usize> {
     first: [[f32; N]; 3],
     frac: [[f32; N]; 3],
-    inside: [[bool; N]; 3],
-    past: [bool; N],
+    inside: [u32; N],
+    past: [u32; N],
 }
 
 /// An integer 0 ≤ c < 2^52 held in an f64, as i64: c + 2^52 holds c in its low
@@ -599,8 +601,8 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     ) {
         let p = self.place_lanes::<N>(ray, k0);
         for l in 0..N {
-            out.past[l] = p.past[l];
-            out.inside[l] = p.inside[0][l] & p.inside[1][l] & p.inside[2][l];
+            out.past[l] = p.past[l] != 0;
+            out.inside[l] = p.inside[l] != 0;
             out.n[l] = [p.first[0][l], p.first[1][l], p.first[2][l]].map(|x| index(f64::from(x)));
             out.f[l] = [p.frac[0][l], p.frac[1][l], p.frac[2][l]];
         }
@@ -667,11 +669,11 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             return false;
         };
         let p = self.place_lanes::<LANES>(ray, k);
-        let mut all = true;
+        let mut all = 1;
         for l in 0..LANES {
-            all &= p.inside[0][l] & p.inside[1][l] & p.inside[2][l] & !p.past[l];
+            all &= p.inside[l] & (p.past[l] ^ 1);
         }
-        if !all {
+        if all == 0 {
             return false;
         }
         // first0 + s0 (first1 + s1 first2): integers below 2^53 (the sizes of data held

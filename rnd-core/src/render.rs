@@ -22,6 +22,11 @@ use crate::volume::Volume;
 use crate::voxel::Voxel;
 
 #[doc(hidden)]
+/// Volumes of more voxels than this get a pilot before their `max` skip grid is built
+/// ([`RenderSpec::pilot`]); smaller ones always get the grid (2^23: a 256 × 256 × 128
+/// volume).
+pub const PILOT_VOXELS: usize = 1 << 23;
+
 pub use crate::arith::RayGeom;
 pub use crate::march::{Loop, SampleInfo, Trace};
 pub use crate::simd::SimdLevel;
@@ -492,6 +497,87 @@ impl<'a> RenderSpec<'a> {
             (kind, _) => SkipPlan::for_max(vol, kernel, kind),
         };
         plan.map(|p| p.with_simd(self.simd))
+    }
+
+    /// Whether building this render's skip grid is likely to pay for itself: always for
+    /// an opacity grid (`over`), and for a `max` grid unless a pilot says it would skip
+    /// next to nothing (see [`RenderSpec::pilot`]). The image is the same bits either
+    /// way (skipping is exact); only the time differs.
+    ///
+    /// Not generic, as [`RenderSpec::cast`].
+    #[cfg(not(test))] // as for `cast`
+    pub fn skip_pays(&self, vol: AnyVolume<'_>, kernel: KernelName) -> bool {
+        struct Pilot<'s, 'a>(&'s RenderSpec<'a>);
+        impl ConvoTask for Pilot<'_, '_> {
+            type Output = bool;
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> bool {
+                self.0.pilot::<V, K, S>(vol)
+            }
+        }
+        dispatch(vol, kernel, Pilot(self))
+    }
+
+    /// [`RenderSpec::skip_pays`] for a volume and kernel known at compile time. A `max`
+    /// grid costs a pass over every voxel, and saves only where a block's bound falls
+    /// below a ray's running maximum. On a volume of more than [`PILOT_VOXELS`] voxels,
+    /// a pilot casts up to 16 × 16 rays spread over the image (no skipping; their
+    /// results are the rays' maxima) and samples the bound of every eighth fine block
+    /// along each axis ([`SkipPlan::sample_bounds`]): the grid is built when, averaged
+    /// over the pilot rays, at least one sampled block in 16 lies below the ray's
+    /// maximum. Smaller volumes always get their (cheap) grid.
+    #[doc(hidden)]
+    pub fn pilot<V: Voxel, K: Kernel<S>, const S: usize>(&self, vol: Volume<'_, V>) -> bool {
+        let kind = match self.skip_kind() {
+            None => return false,
+            Some(SkipKind::Opacity) => return true,
+            Some(kind) => kind,
+        };
+        let sizes = vol.sizes();
+        if sizes[0].saturating_mul(sizes[1]).saturating_mul(sizes[2]) <= PILOT_VOXELS {
+            return true;
+        }
+        self.pilot_says::<V, K, S>(vol, kind)
+    }
+
+    /// The pilot of [`RenderSpec::pilot`] (any volume size).
+    #[doc(hidden)]
+    pub fn pilot_says<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        vol: Volume<'_, V>,
+        kind: SkipKind,
+    ) -> bool {
+        let Some(plan) = SkipPlan::for_max(&vol, K::NAME, kind) else {
+            return false;
+        };
+        let [w, h] = self.size();
+        let (nx, ny) = (w.min(16), h.min(16));
+        let mut px = alloc::vec![0.0f32; self.channels()];
+        let mut maxima = Vec::with_capacity((nx * ny) as usize);
+        let outside = self.params.outside;
+        self.with_march::<V, K, S, ()>(vol, None, None, |m| {
+            for b in 0..ny {
+                for a in 0..nx {
+                    let (hi, vi) = ((2 * a + 1) * w / (2 * nx), (2 * b + 1) * h / (2 * ny));
+                    m.cast(hi, vi, Out::Pixel(&mut px), Loop::Batched, None);
+                    // (Rays that miss the volume give `outside`; they skip nothing.)
+                    if !px[0].is_nan() && px[0].to_bits() != outside.to_bits() {
+                        maxima.push(px[0]);
+                    }
+                }
+            }
+        });
+        let mut bounds = plan.sample_bounds(&vol, 8);
+        if maxima.is_empty() || bounds.is_empty() {
+            return false;
+        }
+        // Per pilot ray, the share of sampled blocks below its maximum (blocks it could
+        // skip once its running maximum is there); the grid when they average 1/16.
+        bounds.sort_by(f32::total_cmp);
+        let below: usize = maxima
+            .iter()
+            .map(|&q| bounds.partition_point(|&b| b < q))
+            .sum();
+        below * 16 >= bounds.len() * maxima.len()
     }
 
     /// Whether the gradient is computed at each sample.
@@ -989,7 +1075,10 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
         type Output = Vec<f32>;
         fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> Vec<f32> {
             let Whole(spec, mut out) = self;
-            let skip = spec.skip_grid(&vol, K::NAME);
+            let skip = spec
+                .skip_plan(&vol, K::NAME)
+                .filter(|_| spec.pilot::<V, K, S>(vol))
+                .map(|plan| plan.build(&vol));
             spec.rows_in::<V, K, S>(vol, skip.as_ref(), 0..spec.size()[1], &mut out, None);
             out
         }

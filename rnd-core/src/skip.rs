@@ -279,6 +279,44 @@ impl<'l> SkipPlan<'l> {
         self
     }
 
+    /// The bounds of every `step`-th fine block along each axis (from the first, fastest
+    /// axis first), as the grid this plan builds records them: a cheap sample (each
+    /// block's voxels read directly) of a `max` grid. Empty for an opacity plan.
+    pub fn sample_bounds<V: Voxel>(&self, vol: &Volume<'_, V>, step: usize) -> Vec<f32> {
+        let Test::Bound(lin) = &self.test else {
+            return Vec::new();
+        };
+        let (sizes, s, step) = (self.sizes, self.kernel.support(), step.max(1));
+        let range = |b: usize, a: usize| (b * F)..((b + 1) * F + s - 1).min(sizes[a]);
+        let data = vol.data();
+        let mut out = Vec::new();
+        for fk in (0..self.nf[2]).step_by(step) {
+            for fj in (0..self.nf[1]).step_by(step) {
+                for fi in (0..self.nf[0]).step_by(step) {
+                    let (mut m, mut mx, mut nan) = (f32::INFINITY, f32::NEG_INFINITY, false);
+                    for k in range(fk, 2) {
+                        for j in range(fj, 1) {
+                            let row = (k * sizes[1] + j) * sizes[0];
+                            let r = range(fi, 0);
+                            for v in data.get(row + r.start..row + r.end).unwrap_or(&[]) {
+                                let x = v.to_f32();
+                                nan |= x.is_nan();
+                                m = if x < m { x } else { m };
+                                mx = if x > mx { x } else { mx };
+                            }
+                        }
+                    }
+                    // A NaN voxel: the range, and so the bound, is unbounded.
+                    if nan {
+                        (m, mx) = (f32::NEG_INFINITY, f32::INFINITY);
+                    }
+                    out.push(lin.bound(m, mx));
+                }
+            }
+        }
+        out
+    }
+
     /// Number of coarse slabs (along the slowest axis), the units of work.
     pub fn slabs(&self) -> usize {
         self.nb[2]
@@ -790,6 +828,104 @@ mod tests {
             g.hi.fill(f32::NEG_INFINITY);
             g.coarse_hi.fill(f32::NEG_INFINITY);
             assert_ne!(img(Some(&g)), plain, "{probe:?}");
+        }
+    }
+
+    /// The pilot builds a `max` grid where rays can skip (a bright blob in a dim field:
+    /// most blocks lie below the rays' maxima) and not where no block can be skipped
+    /// (noise of the same range everywhere, as the 256³ bench volume), for the value and
+    /// the gradient magnitude.
+    #[test]
+    fn pilot_builds_grids_that_skip() {
+        use crate::affine::Affine4;
+        use crate::blend::Blend;
+        use crate::camera::CameraSpec;
+        use crate::kernel::Bspln3;
+        use crate::probe::Probe;
+        use crate::render::{RenderParams, RenderSpec};
+        use crate::skip::SkipKind;
+        use crate::volume::Volume;
+        let sizes = [48, 48, 48];
+        let at = |i: usize| [i % 48, (i / 48) % 48, i / 2304].map(|c| c as f32 - 23.5);
+        let n = sizes[0] * sizes[1] * sizes[2];
+        let blob: Vec<f32> = (0..n)
+            .map(|i| {
+                let p = at(i);
+                let r2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+                libm::expf(-r2 / 100.0) + ((i * 7919) % 101) as f32 / 20000.0
+            })
+            .collect();
+        let noise: Vec<f32> = (0..n).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-23.5; 3]);
+        let mut p = RenderParams::new(CameraSpec {
+            from: [0.0, -100.0, 0.0],
+            at: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            near: -30.0,
+            far: 30.0,
+            fov: 30.0,
+            size: [32, 32],
+            orthographic: true,
+        });
+        p.blend = Blend::Max;
+        for (probe, kind) in [
+            (Probe::Value, SkipKind::MaxValue),
+            (Probe::GradMag, SkipKind::MaxGradMag),
+        ] {
+            p.probe = probe;
+            let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
+            for (data, builds) in [(&blob, true), (&noise, false)] {
+                let vol = Volume::new(data, sizes, itow).unwrap();
+                let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind);
+                assert_eq!(says, builds, "{probe:?} blob {builds}");
+            }
+        }
+    }
+
+    /// `sample_bounds` gives the sampled fine blocks' bounds of the built grid, bit for
+    /// bit (NaN and infinite voxels included), for several steps.
+    #[test]
+    fn sampled_bounds_are_the_grids() {
+        use crate::affine::Affine4;
+        use crate::kernel::KernelName;
+        use crate::skip::{SkipKind, SkipPlan};
+        use crate::volume::Volume;
+        let sizes = [37, 29, 45];
+        let mut data: Vec<f32> = (0..sizes[0] * sizes[1] * sizes[2])
+            .map(|i| {
+                let (x, z) = ((i % 37) as f32, (i / (37 * 29)) as f32);
+                (x * 0.1).sin() * z + ((i * 7919) % 101) as f32 / 50.0
+            })
+            .collect();
+        data[1000] = f32::NAN;
+        data[20000] = f32::INFINITY;
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0.2, 0., 1.], [0.; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        for kernel in [KernelName::Bspln3, KernelName::Ctmr, KernelName::Tent] {
+            for kind in [SkipKind::MaxValue, SkipKind::MaxGradMag] {
+                let plan = || SkipPlan::for_max(&vol, kernel, kind).unwrap();
+                let g = plan().build(&vol);
+                for step in [1, 2, 4] {
+                    let mut want = Vec::new();
+                    for fk in (0..g.nf[2]).step_by(step) {
+                        for fj in (0..g.nf[1]).step_by(step) {
+                            for fi in (0..g.nf[0]).step_by(step) {
+                                want.push(g.hi[fi + g.nf[0] * (fj + g.nf[1] * fk)].to_bits());
+                            }
+                        }
+                    }
+                    let got: Vec<u32> = plan()
+                        .sample_bounds(&vol, step)
+                        .iter()
+                        .map(|b| b.to_bits())
+                        .collect();
+                    assert_eq!(got, want, "{kernel} {kind:?} step {step}");
+                    if step == 1 {
+                        assert!(got.contains(&f32::INFINITY.to_bits()));
+                        assert!(got.iter().any(|&b| f32::from_bits(b) < 20.0));
+                    }
+                }
+            }
         }
     }
 

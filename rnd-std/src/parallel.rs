@@ -173,6 +173,7 @@ pub fn render_with(
             };
             let skip = spec
                 .skip_plan(&vol, K::NAME)
+                .filter(|_| spec.skip_pays(vol.into(), K::NAME))
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
             let done = bands(&mut out, w * ch, h, self.threads, control, |rows, chunk| {
                 let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
@@ -270,6 +271,7 @@ pub fn render_part_with(
             let clock = || t0.elapsed().as_secs_f64() * 1000.0;
             let timed = spec.params().time;
             let failed: Mutex<Option<rnd_core::Error>> = Mutex::new(None);
+            // (No pilot for a brick: its rays' maxima are the whole volume's.)
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));

@@ -36,7 +36,11 @@ impl<'a, V: Voxel> LaneBatch<'a, V> {
     #[inline(always)]
     fn supports<const S: usize>(self) -> (LaneSupports<'a, V, S>, &'a [[f32; LANES]; 3]) {
         assert!(self.len > 0, "convolving an empty batch");
-        let base = core::array::from_fn(|l| self.base[if l < self.len { l } else { 0 }]);
+        let base = if self.len >= LANES {
+            *self.base
+        } else {
+            core::array::from_fn(|l| self.base[if l < self.len { l } else { 0 }])
+        };
         let sz = self.vol.sizes();
         let sup = LaneSupports::new(self.vol.data(), base, sz[0], sz[0] * sz[1]);
         (sup, self.al)
