@@ -173,7 +173,13 @@ fn place_each<A: Arith + ?Sized, const N: usize>(
 /// |g| in f32, the one formula of both arithmetics.
 #[inline(always)]
 pub(crate) fn gmag(g: [f32; 3]) -> f32 {
-    math::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    math::sqrtf(sq_len(g))
+}
+
+/// |g|² in f32, as [`gmag`] sums it.
+#[inline(always)]
+fn sq_len(g: [f32; 3]) -> f32 {
+    g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
 }
 
 /// Geometry of one ray in the f64 arithmetic.
@@ -703,6 +709,18 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     #[inline(always)]
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
         self.wtoi.gradient(gi)
+    }
+    /// [`gmag`]'s operations: the squared lengths of all lanes first (side by side),
+    /// then their square roots (one vector instruction per eight at AVX2; correctly
+    /// rounded either way, so the same bits).
+    #[inline(always)]
+    fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
+        let mut out = [0.0f32; N];
+        for (o, x) in out.iter_mut().zip(r) {
+            *o = sq_len(self.wtoi.gradient([x[1], x[2], x[3]]));
+        }
+        crate::simd::sqrt_lanes(self.simd, &mut out);
+        out
     }
     fn second(&self, n: [i64; 3], f: [f32; 3]) -> SecondOrder {
         second_order_at::<V, K, S>(&self.vol, n, f.map(f64::from))
