@@ -21,12 +21,12 @@ use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
-#[doc(hidden)]
 /// Volumes of more voxels than this get a pilot before their `max` skip grid is built
 /// ([`RenderSpec::pilot`]); smaller ones always get the grid (2^23: a 256 × 256 × 128
 /// volume).
 pub const PILOT_VOXELS: usize = 1 << 23;
 
+#[doc(hidden)]
 pub use crate::arith::RayGeom;
 pub use crate::march::{Loop, SampleInfo, Trace};
 pub use crate::simd::SimdLevel;
