@@ -124,6 +124,18 @@ fn bspln3_far(t: f32) -> f32 {
     1.0 / 6.0 + u * (-0.5 + u * (0.5 - u / 6.0))
 }
 
+/// |x| of the four support positions at fractional offset `al` (x = al − (LO + i),
+/// LO = −1), as the reference computes them.
+#[inline(always)]
+fn bspln3_positions(al: f32) -> [f32; 4] {
+    [
+        (al + 1.0).abs(),
+        al.abs(),
+        (al - 1.0).abs(),
+        (al - 2.0).abs(),
+    ]
+}
+
 /// [`bspln3_near`]'s derivative (for positive x).
 #[inline(always)]
 fn bspln3_near_d1(t: f32) -> f32 {
@@ -337,12 +349,7 @@ impl Kernel<4> for Bspln3 {
     #[inline(always)]
     fn ref_weights(al: f32) -> [f32; 4] {
         debug_assert!((0.0..1.0).contains(&al));
-        let (t0, t1, t2, t3) = (
-            (al + 1.0).abs(),
-            al.abs(),
-            (al - 1.0).abs(),
-            (al - 2.0).abs(),
-        );
+        let [t0, t1, t2, t3] = bspln3_positions(al);
         [
             if t0 < 2.0 { bspln3_far(t0) } else { 0.0 },
             bspln3_near(t1),
@@ -359,12 +366,7 @@ impl Kernel<4> for Bspln3 {
     #[inline(always)]
     fn ref_weights_d1(al: f32) -> [f32; 4] {
         debug_assert!((0.0..1.0).contains(&al));
-        let (t0, t1, t2, t3) = (
-            (al + 1.0).abs(),
-            al.abs(),
-            (al - 1.0).abs(),
-            (al - 2.0).abs(),
-        );
+        let [t0, t1, t2, t3] = bspln3_positions(al);
         [
             if t0 < 2.0 { bspln3_far_d1(t0) } else { 0.0 },
             bspln3_near_d1(t1),
