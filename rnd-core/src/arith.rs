@@ -19,7 +19,7 @@ use crate::convo::{
 };
 use crate::kernel::Kernel;
 use crate::math;
-use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, LANES};
+use crate::refarith::{self, Lanes, RefCamera, RefIndex, RefRay, ViewIndex, LANES};
 use crate::simd::LaneBatch;
 use crate::simd::Simd;
 use crate::volume::Volume;
@@ -37,28 +37,17 @@ pub(crate) struct Line {
 /// The last opacity corrected on a ray (its bits) and the result.
 pub(crate) type Memo = Option<(u32, f32)>;
 
-/// Placements of consecutive samples (see [`Arith::place_block`]).
+/// The f64 engine's placements of consecutive samples (see [`Arith::place_block`]).
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Placed<F, const N: usize> {
+pub(crate) struct Placed<const N: usize> {
     /// First support index per axis (where inside).
-    pub n: [[i64; 3]; N],
+    n: [[i64; 3]; N],
     /// Fractional offsets (where inside).
-    pub f: [F; N],
+    f: [[f64; 3]; N],
     /// Whether the support is inside the volume.
-    pub inside: [bool; N],
+    inside: [bool; N],
     /// Whether the sample is past the far plane.
-    pub past: [bool; N],
-}
-
-impl<F: Copy + Default, const N: usize> Default for Placed<F, N> {
-    fn default() -> Self {
-        Placed {
-            n: [[0; 3]; N],
-            f: [F::default(); N],
-            inside: [false; N],
-            past: [false; N],
-        }
-    }
+    past: [bool; N],
 }
 
 /// One arithmetic: what the loop asks of the geometry, the convolution and the
@@ -82,20 +71,18 @@ pub(crate) trait Arith {
     /// First support index per axis and fractions of sample k, when its kernel support
     /// is inside the volume (the inside rule).
     fn place(&self, ray: &Self::Ray, k: u32) -> Option<([i64; 3], Self::Frac)>;
+    /// Placements of `N` consecutive samples, in the strategy's own layout (read
+    /// lane by lane with [`Arith::block_past`] and [`Arith::block_at`]).
+    type Block<const N: usize>: Copy;
     /// [`Arith::place`] and [`Arith::past`] for the `N` consecutive samples from `k0`
     /// (strategies may compute them side by side; the same results). With `exact`,
     /// every one of them is known to be inside and before the far plane (from an exact
     /// [`Arith::span`]), and the tests may be left out.
-    #[inline(always)]
-    fn place_block<const N: usize>(
-        &self,
-        ray: &Self::Ray,
-        k0: u32,
-        _exact: bool,
-        out: &mut Placed<Self::Frac, N>,
-    ) {
-        place_each(self, ray, k0, out);
-    }
+    fn place_block<const N: usize>(&self, ray: &Self::Ray, k0: u32, exact: bool) -> Self::Block<N>;
+    /// Whether sample `l` of a block is past the far plane.
+    fn block_past<const N: usize>(b: &Self::Block<N>, l: usize) -> bool;
+    /// [`Arith::place`] of sample `l` of a block.
+    fn block_at<const N: usize>(b: &Self::Block<N>, l: usize) -> Option<([i64; 3], Self::Frac)>;
     /// View, world and index position of sample k (for position probes and the trace).
     fn positions(&self, ray: &Self::Ray, k: u32) -> [[f64; 3]; 3];
     /// Depth-cue position of sample k: 0 on the near plane, 1 on the far plane.
@@ -150,24 +137,6 @@ pub(crate) trait Arith {
     /// Blends a counted probe (`over`: rgb and corrected α; `transp` is the running
     /// transparency, kept by strategies that composite on it).
     fn blend(acc: &mut Accum, transp: &mut f32, pr: &[f32; MAX_CHANNELS]);
-}
-
-/// [`Arith::place`] and [`Arith::past`] of the `N` samples from `k0`, one by one.
-#[inline(always)]
-fn place_each<A: Arith + ?Sized, const N: usize>(
-    a: &A,
-    ray: &A::Ray,
-    k0: u32,
-    out: &mut Placed<A::Frac, N>,
-) {
-    for l in 0..N {
-        let k = k0 + l as u32;
-        out.past[l] = a.past(ray, k);
-        match a.place(ray, k) {
-            Some((n, f)) => (out.inside[l], out.n[l], out.f[l]) = (true, n, f),
-            None => out.inside[l] = false,
-        }
-    }
 }
 
 /// |g| in f32, the one formula of both arithmetics.
@@ -276,6 +245,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> F64<'r, 'v, V, K, S> {
 impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
     type Ray = F64Ray;
     type Frac = [f64; 3];
+    type Block<const N: usize> = Placed<N>;
     const BATCH: usize = 8;
 
     #[inline]
@@ -315,29 +285,36 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
     /// With `exact`, the placements without the inside tests ([`locate`]: the same
     /// arithmetic as [`place`]).
     #[inline(always)]
-    fn place_block<const N: usize>(
-        &self,
-        ray: &F64Ray,
-        k0: u32,
-        exact: bool,
-        out: &mut Placed<[f64; 3], N>,
-    ) {
-        if !exact {
-            return place_each(self, ray, k0, out);
-        }
+    fn place_block<const N: usize>(&self, ray: &F64Ray, k0: u32, exact: bool) -> Placed<N> {
+        let mut out = Placed {
+            n: [[0; 3]; N],
+            f: [[0.0; 3]; N],
+            inside: [exact; N],
+            past: [false; N],
+        };
         for l in 0..N {
             let k = k0 + l as u32;
-            (out.n[l], out.f[l]) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
-            (out.inside[l], out.past[l]) = (true, false);
-        }
-        // Support starts count from the samples held.
-        if self.org != [0; 3] {
-            for n in &mut out.n {
-                for a in 0..3 {
-                    n[a] -= self.org[a];
-                }
+            if exact {
+                let (n, f) = locate::<K, S>(at(&ray.start_i, &ray.step_i, k));
+                // Support starts count from the samples held.
+                out.n[l] = core::array::from_fn(|a| n[a] - self.org[a]);
+                out.f[l] = f;
+                continue;
+            }
+            out.past[l] = self.past(ray, k);
+            if let Some((n, f)) = self.place(ray, k) {
+                (out.inside[l], out.n[l], out.f[l]) = (true, n, f);
             }
         }
+        out
+    }
+    #[inline(always)]
+    fn block_past<const N: usize>(b: &Placed<N>, l: usize) -> bool {
+        b.past[l]
+    }
+    #[inline(always)]
+    fn block_at<const N: usize>(b: &Placed<N>, l: usize) -> Option<([i64; 3], [f64; 3])> {
+        b.inside[l].then(|| (b.n[l], b.f[l]))
     }
     fn positions(&self, ray: &F64Ray, k: u32) -> [[f64; 3]; 3] {
         [
@@ -449,6 +426,7 @@ pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     pub simd: Simd,
     pub cam: &'r RefCamera,
     pub wtoi: RefIndex,
+    vix: ViewIndex,
     pub plane_sep: f32,
     pub unit_step: f32,
     /// Per axis: the kernel's first support offset less the grid index of the first
@@ -469,10 +447,12 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         unit_step: f32,
     ) -> Self {
         let (o, sz) = (vol.origin(), vol.sizes());
+        let wtoi = RefIndex::new(vol.itow());
         Reference {
             lo_off: o.map(|o| K::LO as f32 - o as f32),
             top: sz.map(|n| n as f32 - 1.0),
-            wtoi: RefIndex::new(vol.itow()),
+            wtoi,
+            vix: ViewIndex::new(cam, &wtoi),
             vol,
             simd,
             cam,
@@ -555,7 +535,8 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
 /// fractional offset; whether the support is inside on every axis and whether the
 /// sample is past the far plane (1 or 0: whole lanes, which stay vectors, where bools
 /// would be packed to bytes).
-struct Lanes3<const N: usize> {
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lanes3<const N: usize> {
     first: [[f32; N]; 3],
     frac: [[f32; N]; 3],
     inside: [u32; N],
@@ -573,6 +554,7 @@ fn index(c: f64) -> i64 {
 impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S> {
     type Ray = RefRay;
     type Frac = [f32; 3];
+    type Block<const N: usize> = Lanes3<N>;
     const BATCH: usize = LANES;
 
     #[inline]
@@ -598,20 +580,19 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     }
     /// Each lane does exactly what [`Arith::place`] does for its sample, side by side.
     #[inline(always)]
-    fn place_block<const N: usize>(
-        &self,
-        ray: &RefRay,
-        k0: u32,
-        _exact: bool,
-        out: &mut Placed<[f32; 3], N>,
-    ) {
-        let p = self.place_lanes::<N>(ray, k0);
-        for l in 0..N {
-            out.past[l] = p.past[l] != 0;
-            out.inside[l] = p.inside[l] != 0;
-            out.n[l] = [p.first[0][l], p.first[1][l], p.first[2][l]].map(|x| index(f64::from(x)));
-            out.f[l] = [p.frac[0][l], p.frac[1][l], p.frac[2][l]];
-        }
+    fn place_block<const N: usize>(&self, ray: &RefRay, k0: u32, _exact: bool) -> Lanes3<N> {
+        self.place_lanes::<N>(ray, k0)
+    }
+    #[inline(always)]
+    fn block_past<const N: usize>(b: &Lanes3<N>, l: usize) -> bool {
+        b.past[l] != 0
+    }
+    #[inline(always)]
+    fn block_at<const N: usize>(b: &Lanes3<N>, l: usize) -> Option<([i64; 3], [f32; 3])> {
+        (b.inside[l] != 0).then(|| {
+            let n = [b.first[0][l], b.first[1][l], b.first[2][l]].map(|x| index(f64::from(x)));
+            (n, [b.frac[0][l], b.frac[1][l], b.frac[2][l]])
+        })
     }
     fn positions(&self, ray: &RefRay, k: u32) -> [[f64; 3]; 3] {
         let pv = Self::view(ray, k);
@@ -626,11 +607,11 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     }
     fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32, bool)> {
         let kmax = kend.saturating_sub(1);
-        refarith::inside_span::<V, K, S>(self.cam, ray, &self.wtoi, &self.vol, kmax)
+        refarith::inside_span::<V, K, S>(&self.vix, ray, &self.vol, kmax)
             .map(|(a, b)| (a, b + 1, false))
     }
     fn line(&self, ray: &RefRay, kend: u32) -> Option<Line> {
-        refarith::index_line(self.cam, ray, &self.wtoi, kend.saturating_sub(1))
+        self.vix.line(ray, kend.saturating_sub(1))
     }
     #[inline(always)]
     fn convolve<const G: bool, const N: usize>(

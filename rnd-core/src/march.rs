@@ -11,7 +11,7 @@
 
 use core::cell::Cell;
 
-use crate::arith::{gmag, Arith, Line, Memo, Placed};
+use crate::arith::{gmag, Arith, Line, Memo};
 use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
 use crate::brick::{Own, Partial};
 use crate::classify::Quantity;
@@ -113,6 +113,17 @@ struct State<'t> {
     win: (u32, u32),
 }
 
+/// A ray's index-space line for jumps over boxes: `s` counts support starts (plus the
+/// kernel's first offset and, for odd supports, one half), `rd` is 1/`d`, and `e` bounds
+/// how far a sample's count lies from `s + k d`.
+#[derive(Clone, Copy)]
+struct Jumps {
+    s: [f64; 3],
+    d: [f64; 3],
+    rd: [f64; 3],
+    e: [f64; 3],
+}
+
 /// Samples placed for the convolution, in ray order (how many are waiting is a local
 /// of the ray loop, so that it stays in a register).
 struct Batch<F, const N: usize> {
@@ -127,22 +138,25 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     pub fn cast(&self, hi: u32, vi: u32, out: Out<'_>, mode: Loop, trace: Trace<'_>) {
         let wide = A::BATCH > 8;
         match (mode, self.spec.need_grad, wide) {
-            (Loop::OneSample, true, _) => self.run::<true, 1>(hi, vi, out, trace),
-            (Loop::OneSample, false, _) => self.run::<false, 1>(hi, vi, out, trace),
+            (Loop::OneSample, true, _) => self.run::<true, 1, 1>(hi, vi, out, trace),
+            (Loop::OneSample, false, _) => self.run::<false, 1, 1>(hi, vi, out, trace),
             (Loop::Batched, g, wide) => crate::simd::wide(self.spec.simd, {
                 #[inline(always)]
                 || match (g, wide) {
-                    (true, false) => self.run::<true, 8>(hi, vi, out, trace),
-                    (false, false) => self.run::<false, 8>(hi, vi, out, trace),
-                    (true, true) => self.run::<true, 16>(hi, vi, out, trace),
-                    (false, true) => self.run::<false, 16>(hi, vi, out, trace),
+                    (true, false) => self.run::<true, 8, 8>(hi, vi, out, trace),
+                    (false, false) => self.run::<false, 8, 8>(hi, vi, out, trace),
+                    (true, true) => self.run::<true, 16, 8>(hi, vi, out, trace),
+                    (false, true) => self.run::<false, 16, 8>(hi, vi, out, trace),
                 }
             }),
         }
     }
 
+    /// Casts one ray: gradients with `G`, batches of `N` samples, placed `P` at a time
+    /// (a skip or a jump leaves the rest of a placed block unused: smaller blocks than
+    /// batches waste less).
     #[inline(always)]
-    fn run<const G: bool, const N: usize>(
+    fn run<const G: bool, const N: usize, const P: usize>(
         &self,
         hi: u32,
         vi: u32,
@@ -200,7 +214,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             _ => (None, None),
         };
         let line = match skip.or(below) {
-            Some(_) if !tracing => self.a.line(&ray, k1),
+            Some(_) if !tracing => self.a.line(&ray, k1).map(|l| self.jumps(&l, k1)),
             _ => None,
         };
         // Blocks of N samples to take whole when all are inside and before the far
@@ -216,8 +230,15 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             f: [A::Frac::default(); N],
             k: [0; N],
         };
+        if everywhere {
+            for kk in k0..k1 {
+                if (kk > 0 && self.a.past(&ray, kk)) || self.everywhere(&ray, kk, &mut st) {
+                    break;
+                }
+            }
+            return self.finish(&mut st, out);
+        }
         let mut m = 0usize;
-        let mut pb = Placed::<A::Frac, N>::default();
         let mut k = k0;
         'ray: while k < k1 {
             if runs && m == 0 && k1 - k >= N as u32 {
@@ -232,53 +253,41 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 }
             }
             // The next samples' placements, then each in order.
-            let cnt = (k1 - k).min(N as u32);
-            if !everywhere {
-                self.a
-                    .place_block::<N>(&ray, k, exact && cnt == N as u32, &mut pb);
-            }
+            let cnt = (k1 - k).min(P as u32);
+            let pb = self.a.place_block::<P>(&ray, k, exact && cnt == P as u32);
             // A whole block inside and before the far plane, with nothing to skip or
-            // trace, is the batch, in order. Leading samples outside (where the ray
+            // trace, joins the batch, in order. Leading samples outside (where the ray
             // enters) count for nothing: the block starts again after them.
-            if whole && m == 0 && cnt == N as u32 && !pb.past.iter().any(|&p| p) {
-                match (
-                    pb.inside.iter().all(|&i| i),
-                    pb.inside.iter().position(|&i| i),
-                ) {
-                    (true, _) => {
-                        (b.n, b.f) = (pb.n, pb.f);
-                        for (i, kk) in b.k.iter_mut().enumerate() {
-                            *kk = k + i as u32;
+            if whole && m + P <= N && cnt == P as u32 && !(0..P).any(|l| A::block_past(&pb, l)) {
+                let (mut all, mut first) = (true, None);
+                for l in 0..P {
+                    match A::block_at(&pb, l) {
+                        Some((n, f)) => {
+                            (b.n[m + l], b.f[m + l], b.k[m + l]) = (n, f, k + l as u32);
+                            first = first.or(Some(l as u32));
                         }
-                        if self.flush::<G, N>(&ray, &mut st, &mut b, N) {
-                            return self.finish(&mut st, out);
-                        }
-                        k += N as u32;
-                        continue;
+                        None => all = false,
                     }
-                    (false, Some(j)) if j > 0 => {
-                        k += j as u32;
-                        continue;
+                }
+                if all {
+                    m += P;
+                    if m == N && self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m))
+                    {
+                        return self.finish(&mut st, out);
                     }
-                    _ => {}
+                    k += P as u32;
+                    continue;
+                }
+                if let Some(j @ 1..) = first {
+                    k += j;
+                    continue;
                 }
             }
             for (l, kk) in (k..k + cnt).enumerate() {
-                let past = if everywhere {
-                    kk > 0 && self.a.past(&ray, kk)
-                } else {
-                    kk > 0 && pb.past[l]
-                };
-                if past {
+                if kk > 0 && A::block_past(&pb, l) {
                     break 'ray;
                 }
-                if everywhere {
-                    if self.everywhere(&ray, kk, &mut st) {
-                        return self.finish(&mut st, out);
-                    }
-                    continue;
-                }
-                if !pb.inside[l] {
+                let Some((n, f)) = A::block_at(&pb, l) else {
                     if tracing {
                         if self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
                             return self.finish(&mut st, out);
@@ -286,8 +295,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         self.emit(&ray, kk, &mut st, None, [0.0; MAX_CHANNELS], false);
                     }
                     continue;
-                }
-                let n = pb.n[l];
+                };
                 if let Some(g) = below {
                     // Under `max`: a sample whose block bounds it below the floor, or by
                     // the running maximum (which only grows while a batch waits), is
@@ -333,7 +341,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     }
                 }
                 if m < N {
-                    (b.n[m], b.f[m], b.k[m]) = (n, pb.f[l], kk);
+                    (b.n[m], b.f[m], b.k[m]) = (n, f, kk);
                 }
                 m += 1;
                 if m == N && self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
@@ -770,39 +778,53 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
+    /// A ray's `line` for [`March::box_run_end`] over samples before `k1`.
+    fn jumps(&self, line: &Line, k1: u32) -> Jumps {
+        let o = if self.support % 2 == 1 { 0.5 } else { 0.0 };
+        Jumps {
+            // Support start floor(x + o) + LO: x + o + LO counts it.
+            s: line.s.map(|s| s + (self.lo as f64 + o)),
+            d: line.d,
+            rd: line.d.map(|d| 1.0 / d),
+            // The line's bound, and this f64 arithmetic's rounding, far inside the margin.
+            e: core::array::from_fn(|a| {
+                let (s, d) = (line.s[a], line.d[a]);
+                line.err[a] + 1e-12 * (s.abs() + k1 as f64 * d.abs() + 3.0)
+            }),
+        }
+    }
+
     /// The last sample in [k, k1) up to which every sample provably has its support
     /// start in box `bx` (`[first, last]` per axis, cut to the volume's support starts),
     /// which sample k's is in; k when that cannot be shown. The strategy's positions lie
-    /// within `line.err` of the exact line, so samples whose exact position is that far
+    /// within `err` of the exact line, so samples whose exact position is that far
     /// inside the box's position range are members, and the exact line is straight, so
     /// if samples k and j are, every sample between is.
-    fn box_run_end(&self, line: &Line, bx: [[i64; 2]; 3], k: u32, k1: u32) -> u32 {
-        let o = if self.support % 2 == 1 { 0.5 } else { 0.0 };
-        let lo_off = self.lo as f64 + o;
+    #[inline(always)]
+    fn box_run_end(&self, jl: &Jumps, bx: [[i64; 2]; 3], k: u32, k1: u32) -> u32 {
         let mut lim = [[0.0f64; 2]; 3];
         let mut t_end = (k1 - 1) as f64;
         for a in 0..3 {
-            let (s, d) = (line.s[a], line.d[a]);
-            // Rounding of this f64 arithmetic, far inside the margin.
-            let e = line.err[a] + 1e-12 * (s.abs() + k1 as f64 * d.abs() + 1.0);
             // (Boxes count from the samples held; the line is in the grid's indices.)
             let first = (bx[a][0].max(0) + self.org[a]) as f64;
             let last =
                 (bx[a][1].min(self.sizes[a] as i64 - self.support as i64) + self.org[a]) as f64;
-            // Support start floor(x + o) + LO in [first, last] ⇔ x in
-            // [first − LO − o, last + 1 − LO − o).
-            lim[a] = [first - lo_off + e, last + 1.0 - lo_off - e];
-            if d > 0.0 {
-                t_end = t_end.min((lim[a][1] - s) / d);
-            } else if d < 0.0 {
-                t_end = t_end.min((lim[a][0] - s) / d);
+            // Support start in [first, last] ⇔ its count in [first, last + 1).
+            lim[a] = [first + jl.e[a], last + 1.0 - jl.e[a]];
+            // (Where the line leaves the box: a first guess, checked below.)
+            if jl.d[a] > 0.0 {
+                t_end = t_end.min((lim[a][1] - jl.s[a]) * jl.rd[a]);
+            } else if jl.d[a] < 0.0 {
+                t_end = t_end.min((lim[a][0] - jl.s[a]) * jl.rd[a]);
             }
         }
         let member = |j: u32| {
-            (0..3).all(|a| {
-                let x = line.s[a] + j as f64 * line.d[a];
-                lim[a][0] <= x && x <= lim[a][1]
-            })
+            let mut ok = true;
+            for a in 0..3 {
+                let x = jl.s[a] + j as f64 * jl.d[a];
+                ok &= (lim[a][0] <= x) & (x <= lim[a][1]);
+            }
+            ok
         };
         if !(t_end >= k as f64 + 1.0) || !member(k) {
             return k;

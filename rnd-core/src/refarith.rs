@@ -374,14 +374,13 @@ pub const MAX_AXIS: usize = (1 << 24) - 1;
 /// same formula by at most about 11 u times the sum of the magnitudes of its terms; 16 u
 /// of that sum (plus 1) is used, and one more sample at each end.
 pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
-    cam: &RefCamera,
+    vi: &ViewIndex,
     ray: &RefRay,
-    wtoi: &RefIndex,
     vol: &Volume<'_, V>,
     kmax: u32,
 ) -> Option<(u32, u32)> {
     let kmax_f = kmax as f64;
-    let Some(line) = index_line(cam, ray, wtoi, kmax) else {
+    let Some(line) = vi.line(ray, kmax) else {
         return Some((0, kmax));
     };
     let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
@@ -412,51 +411,59 @@ pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
     Some((first as u32, last as u32))
 }
 
-/// The index-space line `s + k d` of `ray` in exact arithmetic on the f32 parameters,
-/// with a bound `err` per axis on how far the f32 index position of any sample
-/// 0 ..= kmax (plus 0.5 for odd supports, rounded) lies from it (see
-/// [`inside_span`]); None when a number is not finite.
-pub(crate) fn index_line(
-    cam: &RefCamera,
-    ray: &RefRay,
-    wtoi: &RefIndex,
-    kmax: u32,
-) -> Option<crate::arith::Line> {
-    let f = |x: f32| x as f64;
-    let kmax_f = kmax as f64;
-    let (u, v, n, fr) = (cam.u, cam.v, cam.n, cam.fr);
-    // Bounds of the view coordinates over samples 0 ..= kmax.
-    let pmax: [f64; 3] =
-        core::array::from_fn(|c| f(ray.start[c]).abs() + kmax_f * f(ray.step[c]).abs());
-    // World position as a function of k: w0 + k w1 (exact in the real numbers).
-    let world = |p: [f64; 3], t: f64, r: usize| {
-        f(u[r]) * p[0] + f(v[r]) * p[1] + f(n[r]) * p[2] + t * f(fr[r])
-    };
-    let start = ray.start.map(f);
-    let step = ray.step.map(f);
-    let w0: [f64; 3] = core::array::from_fn(|r| world(start, 1.0, r));
-    let w1: [f64; 3] = core::array::from_fn(|r| world(step, 0.0, r));
-    let wmag: [f64; 3] = core::array::from_fn(|r| {
-        f(u[r]).abs() * pmax[0] + f(v[r]).abs() * pmax[1] + f(n[r]).abs() * pmax[2] + f(fr[r]).abs()
-    });
-    let unit = 1.0 / (1u32 << 24) as f64;
-    let mut line = crate::arith::Line {
-        s: [0.0; 3],
-        d: [0.0; 3],
-        err: [0.0; 3],
-    };
-    for a in 0..3 {
-        let m = wtoi.m[a].map(f);
-        let t = f(wtoi.t[a]);
-        line.s[a] = m[0] * w0[0] + m[1] * w0[1] + m[2] * w0[2] + t;
-        line.d[a] = m[0] * w1[0] + m[1] * w1[1] + m[2] * w1[2];
-        let mag = m[0].abs() * wmag[0] + m[1].abs() * wmag[1] + m[2].abs() * wmag[2] + t.abs();
-        line.err[a] = 16.0 * unit * (mag + 1.0);
-        if !(line.s[a].is_finite() && line.d[a].is_finite() && line.err[a].is_finite()) {
-            return None;
+/// The reference arithmetic's view-to-index map in f64, for index lines: world-to-index
+/// after view-to-world composed once, x = A p + b, with the magnitudes |M||R| and
+/// |M||fr| + |t| of its terms (M, t world-to-index; R, fr view-to-world).
+#[derive(Debug, Clone, Copy)]
+pub struct ViewIndex {
+    a: [[f64; 3]; 3],
+    b: [f64; 3],
+    amag: [[f64; 3]; 3],
+    bmag: [f64; 3],
+}
+
+impl ViewIndex {
+    /// The map of a camera and a volume's world-to-index.
+    pub fn new(cam: &RefCamera, wtoi: &RefIndex) -> Self {
+        let f = |x: f32| x as f64;
+        let cols = [cam.u, cam.v, cam.n];
+        let (m, t) = (&wtoi.m, &wtoi.t);
+        let sum = |g: &dyn Fn(usize) -> f64| g(0) + g(1) + g(2);
+        ViewIndex {
+            a: core::array::from_fn(|a| {
+                core::array::from_fn(|c| sum(&|r| f(m[a][r]) * f(cols[c][r])))
+            }),
+            b: core::array::from_fn(|a| sum(&|r| f(m[a][r]) * f(cam.fr[r])) + f(t[a])),
+            amag: core::array::from_fn(|a| {
+                core::array::from_fn(|c| sum(&|r| (f(m[a][r]) * f(cols[c][r])).abs()))
+            }),
+            bmag: core::array::from_fn(|a| {
+                sum(&|r| (f(m[a][r]) * f(cam.fr[r])).abs()) + f(t[a]).abs()
+            }),
         }
     }
-    Some(line)
+
+    /// The index-space line `s + k d` of `ray` in exact arithmetic on the f32
+    /// parameters, with a bound `err` per axis on how far the f32 index position of any
+    /// sample 0 ..= kmax (plus 0.5 for odd supports, rounded) lies from it (see
+    /// [`inside_span`]); None when a number is not finite. (The f64 roundings here and
+    /// in composing the map are some 2^-29 of that bound: inside its margin.)
+    #[inline]
+    pub(crate) fn line(&self, ray: &RefRay, kmax: u32) -> Option<crate::arith::Line> {
+        let (p, q) = (ray.start.map(|x| x as f64), ray.step.map(|x| x as f64));
+        let pmax: [f64; 3] = core::array::from_fn(|c| p[c].abs() + kmax as f64 * q[c].abs());
+        let dot = |r: &[f64; 3], x: &[f64; 3]| r[0] * x[0] + r[1] * x[1] + r[2] * x[2];
+        let unit = 1.0 / (1u32 << 24) as f64;
+        let line = crate::arith::Line {
+            s: core::array::from_fn(|a| dot(&self.a[a], &p) + self.b[a]),
+            d: core::array::from_fn(|a| dot(&self.a[a], &q)),
+            err: core::array::from_fn(|a| {
+                16.0 * unit * (dot(&self.amag[a], &pmax) + self.bmag[a] + 1.0)
+            }),
+        };
+        let fin = |v: [f64; 3]| v.iter().all(|x| x.is_finite());
+        (fin(line.s) && fin(line.d) && fin(line.err)).then_some(line)
+    }
 }
 
 pub use crate::simd::LANES;
@@ -847,10 +854,11 @@ mod lane_tests {
             let sep = [0.013f32, 0.1, 0.37, 1.0][(rng.next() * 4.0) as usize];
             let kmax = ((cam.fcv - cam.ncv) / sep) as u32;
             let wtoi = RefIndex::new(&itow);
+            let vix = ViewIndex::new(&cam, &wtoi);
             for vi in 0..7 {
                 for hi in 0..9 {
                     let ray = cam.ray(hi, vi, sep, 1.0);
-                    let span = inside_span::<f32, K, S>(&cam, &ray, &wtoi, &vol, kmax);
+                    let span = inside_span::<f32, K, S>(&vix, &ray, &vol, kmax);
                     let mut inside = alloc::vec::Vec::new();
                     for k in 0..=kmax {
                         // The reference arithmetic's own sample position and inside rule.
