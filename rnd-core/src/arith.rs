@@ -873,7 +873,87 @@ fn inside_span_f64<K: Kernel<S>, const S: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::{first_true, first_true_near};
+    use super::{first_true, first_true_near, Arith, Reference, F64};
+    use crate::affine::Affine4;
+    use crate::camera::{Camera, CameraSpec};
+    use crate::kernel::{Bspln2, Kernel, Tent};
+    use crate::refarith::RefCamera;
+    use crate::simd::{Simd, SimdLevel};
+    use crate::volume::Volume;
+
+    /// A strategy's blocks of eight and of one place each sample exactly as
+    /// [`Arith::place`] does, and say what [`Arith::past`] says: sheared volumes off
+    /// the origin, perspective and orthographic cameras, rays entering, crossing and
+    /// leaving, at every vector level.
+    #[test]
+    fn blocks_place_as_place_does() {
+        fn each<A: Arith>(a: &A, hi: u32, vi: u32, kend: u32, seen: &mut [usize; 2])
+        where
+            A::Frac: core::fmt::Debug,
+        {
+            let ray = a.ray(hi, vi);
+            let bits =
+                |p: Option<([i64; 3], A::Frac)>| p.map(|(n, f)| (n, alloc::format!("{f:?}")));
+            for k0 in 0..kend {
+                let (b8, b1) = (
+                    a.place_block::<8>(&ray, k0, false),
+                    a.place_block::<1>(&ray, k0, false),
+                );
+                assert_eq!(bits(A::block_at(&b1, 0)), bits(a.place(&ray, k0)));
+                for l in 0..8 {
+                    let k = k0 + l as u32;
+                    let want = a.place(&ray, k);
+                    seen[usize::from(want.is_some())] += 1;
+                    assert_eq!(bits(A::block_at(&b8, l)), bits(want), "k {k}");
+                    assert_eq!(A::block_past(&b8, l), a.past(&ray, k), "k {k}");
+                }
+            }
+        }
+        fn one<K: Kernel<S>, const S: usize>(seed: u64, seen: &mut [usize; 2]) {
+            let mut x = seed;
+            let mut c = |s: f64| {
+                x = x
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                ((x >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * s
+            };
+            let sz = [7, 9, 6];
+            let data = alloc::vec![0.0f32; 7 * 9 * 6];
+            let itow = Affine4::from_columns(
+                [0.7 + c(0.2), c(0.3), c(0.3)],
+                [c(0.3), 0.9 + c(0.2), c(0.3)],
+                [c(0.3), c(0.3), 1.1 + c(0.2)],
+                [c(400.0), c(400.0), c(4.0)],
+            );
+            let vol = Volume::new(&data, sz, itow).unwrap();
+            let at = itow.point([3.5 + c(6.0), 4.5 + c(6.0), 3.0 + c(6.0)]);
+            let from = [at[0] + 12.0 + c(6.0), at[1] + c(20.0), at[2] + c(20.0)];
+            let spec = CameraSpec::looking_at(from, at)
+                .clip(-8.0 + c(4.0), 3.0 + c(4.0))
+                .fov(30.0 + c(20.0))
+                .size(5, 4)
+                .orthographic(c(1.0) > 0.0);
+            let cam = Camera::new(spec).unwrap();
+            let (sep, kend) = (0.37 + c(0.5), 40);
+            for level in [SimdLevel::Baseline, SimdLevel::Avx2, SimdLevel::Avx512] {
+                let simd = Simd::at_most(level);
+                let rc = RefCamera::new(&cam.spec);
+                let r = Reference::<f32, K, S>::new(vol, simd, &rc, sep as f32, 1.0);
+                let f = F64::<f32, K, S>::new(vol, simd, &cam, sep, 1.0, &[]);
+                for (hi, vi) in [(0, 0), (2, 1), (4, 3), (1, 3)] {
+                    each(&r, hi, vi, kend, seen);
+                    each(&f, hi, vi, kend, seen);
+                }
+            }
+        }
+        let mut seen = [0usize; 2];
+        for seed in 0..12 {
+            one::<Tent, 2>(seed, &mut seen);
+            one::<Bspln2, 3>(seed, &mut seen);
+        }
+        // Inside and outside samples both occur often.
+        assert!(seen[0] > 10_000 && seen[1] > 10_000, "{seen:?}");
+    }
 
     /// Starting from any estimate (far off, on either side, at the ends, not finite) the
     /// search finds what plain bisection finds, for every threshold of a monotone

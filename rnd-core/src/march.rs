@@ -124,6 +124,19 @@ struct Jumps {
     e: [f64; 3],
 }
 
+impl Jumps {
+    /// Whether sample j's exact position lies within `lim` on every axis.
+    #[inline(always)]
+    fn member(&self, lim: &[[f64; 2]; 3], j: u32) -> bool {
+        let mut ok = true;
+        for a in 0..3 {
+            let x = self.s[a] + j as f64 * self.d[a];
+            ok &= (lim[a][0] <= x) & (x <= lim[a][1]);
+        }
+        ok
+    }
+}
+
 /// Samples placed for the convolution, in ray order (how many are waiting is a local
 /// of the ray loop, so that it stays in a register).
 struct Batch<F, const N: usize> {
@@ -329,10 +342,26 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                             continue;
                         }
                         if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
-                            let j = self.box_run_end(&l, sk.empty_box(n), kk, k1);
-                            if j > kk + 1 && !self.a.past(&ray, j) {
-                                st.acc.add_transparent(j - kk + 1);
+                            let (mut n, mut from) = (n, kk);
+                            while let Some(j) = self.empty_run(&ray, sk, &l, n, from, k1) {
+                                st.acc.add_transparent(j - from + 1);
                                 k = j + 1;
+                                // The sample after a run often starts another: placed
+                                // alone, not in a block, to see.
+                                let one = self.a.place_block::<1>(&ray, k, false);
+                                match A::block_at(&one, 0) {
+                                    Some((nk, _))
+                                        if k < k1
+                                            && !A::block_past(&one, 0)
+                                            && sk.flags_at(nk) & (FINE_EMPTY | COARSE_EMPTY)
+                                                == FINE_EMPTY | COARSE_EMPTY =>
+                                    {
+                                        (n, from) = (nk, k)
+                                    }
+                                    _ => continue 'ray,
+                                }
+                            }
+                            if from > kk {
                                 continue 'ray;
                             }
                         }
@@ -778,6 +807,23 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
+    /// Under `over`: the last sample of the run from sample k (support start `n`, in an
+    /// empty coarse block) that [`March::box_run_end`] shows to be empty, when the run
+    /// is longer than one sample and ends before the far plane.
+    #[inline(always)]
+    fn empty_run(
+        &self,
+        ray: &A::Ray,
+        sk: &SkipGrid,
+        jl: &Jumps,
+        n: [i64; 3],
+        k: u32,
+        k1: u32,
+    ) -> Option<u32> {
+        let j = self.box_run_end(jl, sk.empty_box(n), k, k1);
+        (j > k + 1 && !self.a.past(ray, j)).then_some(j)
+    }
+
     /// A ray's `line` for [`March::box_run_end`] over samples before `k1`.
     fn jumps(&self, line: &Line, k1: u32) -> Jumps {
         let o = if self.support % 2 == 1 { 0.5 } else { 0.0 };
@@ -818,21 +864,16 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 t_end = t_end.min((lim[a][0] - jl.s[a]) * jl.rd[a]);
             }
         }
-        let member = |j: u32| {
-            let mut ok = true;
-            for a in 0..3 {
-                let x = jl.s[a] + j as f64 * jl.d[a];
-                ok &= (lim[a][0] <= x) & (x <= lim[a][1]);
-            }
-            ok
-        };
-        if !(t_end >= k as f64 + 1.0) || !member(k) {
+        if !(t_end >= k as f64 + 1.0) || !jl.member(&lim, k) {
             return k;
         }
         let j = (t_end as u32).min(k1 - 1);
-        [j, j - 1]
-            .into_iter()
-            .find(|&j| j > k && member(j))
-            .unwrap_or(k)
+        if j > k && jl.member(&lim, j) {
+            j
+        } else if j - 1 > k && jl.member(&lim, j - 1) {
+            j - 1
+        } else {
+            k
+        }
     }
 }

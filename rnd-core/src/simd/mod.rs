@@ -175,18 +175,19 @@ pub(crate) fn trunc_i64(y: f64) -> i64 {
 }
 
 /// [`crate::math::floorf`] of every lane of `x`, the same bits: at AVX2 and above one
-/// rounding instruction per eight lanes (rounding toward −∞ is exact, keeps −0, ±∞ and
-/// NaN), else the portable function lane by lane.
+/// rounding instruction per eight lanes, and one per lane left over (rounding toward −∞
+/// is exact, keeps −0, ±∞ and NaN), else the portable function lane by lane.
 #[inline(always)]
 pub(crate) fn floor_lanes<const N: usize>(simd: Simd, x: &mut [f32; N]) {
     #[cfg(target_arch = "x86_64")]
-    if simd.avx2() && N.is_multiple_of(8) {
+    if simd.avx2() {
         use core::arch::x86_64::{
-            _mm256_loadu_ps, _mm256_round_ps, _mm256_storeu_ps, _MM_FROUND_NO_EXC,
-            _MM_FROUND_TO_NEG_INF,
+            _mm256_loadu_ps, _mm256_round_ps, _mm256_storeu_ps, _mm_cvtss_f32, _mm_round_ss,
+            _mm_set_ss, _MM_FROUND_NO_EXC, _MM_FROUND_TO_NEG_INF,
         };
         const DOWN: i32 = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
-        for c in x.chunks_exact_mut(8) {
+        let mut c = x.chunks_exact_mut(8);
+        for c in &mut c {
             // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 (and so
             // AVX) is supported; the chunk holds exactly eight f32 for the unaligned
             // load and store.
@@ -194,6 +195,13 @@ pub(crate) fn floor_lanes<const N: usize>(simd: Simd, x: &mut [f32; N]) {
                 let v = _mm256_loadu_ps(c.as_ptr());
                 _mm256_storeu_ps(c.as_mut_ptr(), _mm256_round_ps::<DOWN>(v));
             }
+        }
+        for v in c.into_remainder() {
+            // SAFETY: as above (SSE4.1, which AVX2 implies); registers only.
+            *v = unsafe {
+                let r = _mm_set_ss(*v);
+                _mm_cvtss_f32(_mm_round_ss::<DOWN>(r, r))
+            };
         }
         return;
     }
@@ -353,7 +361,8 @@ mod tests {
     #[test]
     fn floor_lanes_is_floorf_at_every_level() {
         // Integers and their neighbours, halves, signed zeros, the magnitudes near 2^23,
-        // infinities, NaN and a stride through all bit patterns, 16 lanes at a time.
+        // infinities, NaN and a stride through all bit patterns, 16 lanes at a time (and
+        // 13).
         let mut xs = vec![0.0f32, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
         for i in -300i32..=300 {
             let b = (i as f32).to_bits();
@@ -378,8 +387,11 @@ mod tests {
                 let mut lanes = [0.0f32; 16];
                 lanes[..chunk.len()].copy_from_slice(chunk);
                 let want = lanes.map(crate::math::floorf);
+                // Sixteen lanes, and thirteen (eight and five left over).
+                let mut odd: [f32; 13] = core::array::from_fn(|l| lanes[l]);
                 wide(simd, || floor_lanes(simd, &mut lanes));
-                for (g, w) in lanes.iter().zip(&want) {
+                wide(simd, || floor_lanes(simd, &mut odd));
+                for (g, w) in lanes.iter().chain(&odd).zip(want.iter().chain(&want[..13])) {
                     assert!(
                         g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
                         "{:?}: {g:e} != {w:e}",
