@@ -230,8 +230,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Some(_) if !tracing => self.a.line(&ray, k1).map(|l| self.jumps(&l, k1)),
             _ => None,
         };
-        // Blocks of N samples to take whole when all are inside and before the far
-        // plane (nothing to skip or trace), and among them runs: positions computed
+        // Blocks of P samples to add to the batch whole when all are inside and before
+        // the far plane (nothing to skip or trace), and runs of N: positions computed
         // alongside the sums (the strategy checks that they are inside).
         let whole = N > 1 && !everywhere && !tracing && skip.is_none() && below.is_none();
         let runs = whole && !over && !sp.second;
