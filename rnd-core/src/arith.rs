@@ -435,6 +435,9 @@ pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     /// integers below 2^24).
     lo_off: [f32; 3],
     top: [f32; 3],
+    /// Whether the batched runs compute the value where they compute the gradient
+    /// (true unless the probe is the gradient alone and no trace sees the sums).
+    pub value: bool,
     _k: core::marker::PhantomData<K>,
 }
 
@@ -458,6 +461,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
             cam,
             plane_sep,
             unit_step,
+            value: true,
             _k: core::marker::PhantomData,
         }
     }
@@ -683,6 +687,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             base: &base,
             al: &p.frac,
             len: LANES,
+            value: self.value,
         };
         crate::simd::lane_sums::<V, K, S, G>(self.simd, batch, out);
         true

@@ -553,7 +553,13 @@ impl<const S: usize> Lanes<S> {
         out: &mut [[f32; 4]; LANES],
     ) {
         let (base, al, len) = (&self.base, &self.al, self.len);
-        let batch = LaneBatch { vol, base, al, len };
+        let batch = LaneBatch {
+            vol,
+            base,
+            al,
+            len,
+            value: true,
+        };
         crate::simd::lane_sums::<V, K, S, G>(simd, batch, out);
     }
 }
@@ -738,12 +744,23 @@ mod lane_tests {
             let mut vg = [[0.0f32; 4]; LANES];
             lanes.convolve::<V, K, false>(&vol, simd, &mut v);
             lanes.convolve::<V, K, true>(&vol, simd, &mut vg);
+            // The gradient alone (no value sums, where a level has such a path).
+            let mut g = [[0.0f32; 4]; LANES];
+            let batch = LaneBatch {
+                vol: &vol,
+                base: &lanes.base,
+                al: &lanes.al,
+                len: lanes.len,
+                value: false,
+            };
+            crate::simd::lane_sums::<V, K, S, true>(simd, batch, &mut g);
             for (l, p) in pts.iter().enumerate() {
                 let s = convolve::<V, K, S>(&vol, *p, true).unwrap();
                 let bits = |a: [f32; 4]| a.map(f32::to_bits);
                 let want = [s.value, s.grad_i[0], s.grad_i[1], s.grad_i[2]];
                 assert_eq!(bits(vg[l]), bits(want), "S={S} lane {l} at {p:?}");
                 assert_eq!(v[l][0].to_bits(), s.value.to_bits(), "S={S} value at {p:?}");
+                assert_eq!(bits(g[l])[1..], bits(want)[1..], "S={S} gradient at {p:?}");
             }
         }
     }

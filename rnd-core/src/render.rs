@@ -554,7 +554,7 @@ impl<'a> RenderSpec<'a> {
         let mut px = alloc::vec![0.0f32; self.channels()];
         let mut maxima = Vec::with_capacity((nx * ny) as usize);
         let outside = self.params.outside;
-        self.with_march::<V, K, S, ()>(vol, None, None, |m| {
+        self.with_march::<V, K, S, ()>(vol, None, None, false, |m| {
             for b in 0..ny {
                 for a in 0..nx {
                     let (hi, vi) = ((2 * a + 1) * w / (2 * nx), (2 * b + 1) * h / (2 * ny));
@@ -608,12 +608,14 @@ impl<'a> RenderSpec<'a> {
     }
 
     /// Runs `f` with the loop over `vol` in the spec's arithmetic (casting the stretches
-    /// `own` gives, for a brick).
+    /// `own` gives, for a brick); `traced` when a trace will see the samples (which
+    /// shows their values even where the probe does not need them).
     fn with_march<V: Voxel, K: Kernel<S>, const S: usize, R>(
         &self,
         vol: Volume<'_, V>,
         skip: Option<&SkipGrid>,
         own: Option<Own>,
+        traced: bool,
         f: impl FnOnce(&dyn Cast) -> R,
     ) -> R {
         let (sizes, org) = (vol.sizes(), vol.origin().map(|o| o as i64));
@@ -623,13 +625,14 @@ impl<'a> RenderSpec<'a> {
                 .is_some_and(|kind| g.fits(kind, K::NAME, sizes))
         });
         if self.params.reference {
-            let a = Reference::<V, K, S>::new(
+            let mut a = Reference::<V, K, S>::new(
                 vol,
                 self.simd,
                 &self.ref_cam,
                 self.plane_sep() as f32,
                 self.params.unit_step as f32,
             );
+            a.value = traced || !matches!(self.params.probe, Probe::GradMag | Probe::GradVec);
             f(&march::<_, K, S>(self, a, skip, sizes, org, own))
         } else {
             let a = F64::<V, K, S>::new(
@@ -682,7 +685,7 @@ impl<'a> RenderSpec<'a> {
                     mode,
                     trace,
                 } = self;
-                spec.with_march::<V, K, S, ()>(vol, None, None, |m| {
+                spec.with_march::<V, K, S, ()>(vol, None, None, trace.is_some(), |m| {
                     m.cast(hi, vi, Out::Pixel(out), mode, trace)
                 });
             }
@@ -799,7 +802,7 @@ impl<'a> RenderSpec<'a> {
                     Loop::OneSample
                 };
                 let mut none = Vec::new();
-                spec.with_march::<V, K, S, bool>(vol, skip, Some(own), |m| {
+                spec.with_march::<V, K, S, bool>(vol, skip, Some(own), false, |m| {
                     for (r, vi) in rows.enumerate() {
                         for hi in 0..w {
                             let i = r * w + hi;
@@ -867,7 +870,7 @@ impl<'a> RenderSpec<'a> {
             Loop::OneSample
         };
         debug_assert_eq!(out.len(), rows.len() * w * ch);
-        self.with_march::<V, K, S, ()>(vol, skip, None, |m| {
+        self.with_march::<V, K, S, ()>(vol, skip, None, false, |m| {
             for (r, vi) in rows.enumerate() {
                 for hi in 0..w {
                     let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];

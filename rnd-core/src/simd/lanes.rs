@@ -29,6 +29,9 @@ pub(crate) struct LaneBatch<'a, V: Voxel> {
     pub(crate) al: &'a [[f32; LANES]; 3],
     /// Lanes taken.
     pub(crate) len: usize,
+    /// Whether the value sums are wanted: without, where the gradient is, they may be
+    /// left 0 (a gradient-only probe; the gradient's bits are the same).
+    pub(crate) value: bool,
 }
 
 impl<'a, V: Voxel> LaneBatch<'a, V> {
@@ -166,11 +169,14 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
     out: &mut [[f32; 4]; LANES],
 ) {
-    let groups = batch.groups();
+    let (groups, value) = (batch.groups(), batch.value);
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        let sums = if S == 4 && G {
+        let sums = if S == 4 && G && value {
             // SAFETY: AVX2 is enabled here.
-            unsafe { grad4_avx2::<V, S>(sup, w, dw) }
+            unsafe { grad4_avx2::<V, S, true>(sup, w, dw) }
+        } else if S == 4 && G {
+            // SAFETY: AVX2 is enabled here.
+            unsafe { grad4_avx2::<V, S, false>(sup, w, dw) }
         } else if S == 4 {
             // SAFETY: AVX2 is enabled here.
             unsafe { value4_avx2::<V, S>(sup, w) }
@@ -304,16 +310,19 @@ unsafe fn value4_avx2<V: Voxel, const S: usize>(
     r
 }
 
-/// [`value4_avx2`] with the gradient, one register of eight lanes at a time: its four
-/// running sums are independent chains already, so the two registers need not be
-/// interleaved, and doing them one after the other keeps sums, rows and weights in the
-/// sixteen vector registers (interleaved, they spill). The same operations per lane.
+/// [`value4_avx2`] with the gradient (and the value only with `VAL`), one register of
+/// eight lanes at a time: its running sums are independent chains already, so the two
+/// registers need not be interleaved. The sixteen rows of a support are a loop, not
+/// unrolled, so that the sums stay in registers from row to row (unrolled, the
+/// compiler spilled them, and each addition waited on a reload), and each row is read
+/// one iteration ahead, so that its products wait on no load. The same operations per
+/// lane; without `VAL` the value sums are left 0.
 ///
 /// # Safety
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn grad4_avx2<V: Voxel, const S: usize>(
+unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
     sup: &LaneSupports<'_, V, S>,
     w: &LaneWeights<S>,
     dw: &LaneWeights<S>,
@@ -336,24 +345,29 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize>(
         let b: [usize; 8] = core::array::from_fn(|l| base[8 * h + l]);
         let mut val = _mm256_setzero_ps();
         let (mut g0, mut g1, mut g2) = (val, val, val);
-        for k in 0..S {
-            let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
-            for j in 0..S {
-                let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
-                let o = j * s0 + k * s01;
-                // SAFETY: b[l] + o .. + 3 lies in the support of lane 8 h + l (checked in
-                // `Supports::new`; S is 4); AVX2 is enabled here.
-                let x = unsafe { rows8(ptr, &b, o) };
-                for (i, &xi) in x.iter().enumerate() {
-                    let xw0 = _mm256_mul_ps(xi, ld(&w[0][i]));
-                    let xw0w1 = _mm256_mul_ps(xw0, w1);
+        // SAFETY: b[l] + j s0 + k s01 .. + 3 (j, k < S) lies in the support of lane
+        // 8 h + l (checked in `Supports::new`; S is 4); AVX2 is enabled here.
+        let rows = |row: usize| unsafe { rows8(ptr, &b, row % S * s0 + row / S * s01) };
+        let mut x = rows(0);
+        let mut row = 0;
+        while row < S * S {
+            let (j, k) = (row % S, row / S);
+            // (The last row reads the first again, unused.)
+            let next = rows((row + 1) % (S * S));
+            let (w1, d1, w2, d2) = (ld(&w[1][j]), ld(&dw[1][j]), ld(&w[2][k]), ld(&dw[2][k]));
+            for (i, &xi) in x.iter().enumerate() {
+                let xw0 = _mm256_mul_ps(xi, ld(&w[0][i]));
+                let xw0w1 = _mm256_mul_ps(xw0, w1);
+                if VAL {
                     val = _mm256_add_ps(val, _mm256_mul_ps(xw0w1, w2));
-                    let xd0 = _mm256_mul_ps(xi, ld(&dw[0][i]));
-                    g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
-                    g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
-                    g2 = _mm256_add_ps(g2, _mm256_mul_ps(xw0w1, d2));
                 }
+                let xd0 = _mm256_mul_ps(xi, ld(&dw[0][i]));
+                g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_mul_ps(xd0, w1), w2));
+                g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2));
+                g2 = _mm256_add_ps(g2, _mm256_mul_ps(xw0w1, d2));
             }
+            x = next;
+            row += 1;
         }
         for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
             // SAFETY: eight writable floats from lane 8 h on.
