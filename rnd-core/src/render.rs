@@ -668,36 +668,10 @@ impl<'a> RenderSpec<'a> {
         mode: Loop,
         trace: Trace<'_>,
     ) {
-        struct One<'r, 's, 'a, 't> {
-            spec: &'s RenderSpec<'a>,
-            px: [u32; 2],
-            out: &'r mut [f32],
-            mode: Loop,
-            trace: Trace<'t>,
-        }
-        impl ConvoTask for One<'_, '_, '_, '_> {
-            type Output = ();
-            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
-                let One {
-                    spec,
-                    px: [hi, vi],
-                    out,
-                    mode,
-                    trace,
-                } = self;
-                spec.with_march::<V, K, S, ()>(vol, None, None, trace.is_some(), |m| {
-                    m.cast(hi, vi, Out::Pixel(out), mode, trace)
-                });
-            }
-        }
-        let task = One {
-            spec: self,
-            px: [hi, vi],
-            out,
-            mode,
-            trace,
-        };
-        dispatch(vol, kernel, task);
+        let mut trace = trace;
+        self.on_march(vol, kernel, None, None, trace.is_some(), &mut |m| {
+            m.cast(hi, vi, Out::Pixel(&mut *out), mode, trace.take())
+        });
     }
 
     /// Renders image rows `rows` of `vol` with kernel `kernel` into `out` (`channels`
@@ -716,34 +690,9 @@ impl<'a> RenderSpec<'a> {
         out: &mut [f32],
         clock: Option<&dyn Fn() -> f64>,
     ) {
-        struct Rows<'r, 's, 'a, 'c> {
-            spec: &'s RenderSpec<'a>,
-            skip: Option<&'s SkipGrid>,
-            rows: core::ops::Range<u32>,
-            out: &'r mut [f32],
-            clock: Option<&'c dyn Fn() -> f64>,
-        }
-        impl ConvoTask for Rows<'_, '_, '_, '_> {
-            type Output = ();
-            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) {
-                let Rows {
-                    spec,
-                    skip,
-                    rows,
-                    out,
-                    clock,
-                } = self;
-                spec.rows_in::<V, K, S>(vol, skip, rows, out, clock);
-            }
-        }
-        let task = Rows {
-            spec: self,
-            skip,
-            rows,
-            out,
-            clock,
-        };
-        dispatch(vol, kernel, task);
+        self.on_march(vol, kernel, skip, None, false, &mut |m| {
+            self.cast_rows(m, rows.clone(), &mut *out, clock)
+        });
     }
 
     /// Renders, for each pixel of image rows `rows`, the [`Partial`](crate::brick::Partial)
@@ -774,50 +723,6 @@ impl<'a> RenderSpec<'a> {
         samples: &mut [Vec<f32>],
         clock: Option<&dyn Fn() -> f64>,
     ) -> Result<()> {
-        struct Rows<'r, 's, 'a, 'c> {
-            spec: &'s RenderSpec<'a>,
-            skip: Option<&'s SkipGrid>,
-            own: Own,
-            rows: core::ops::Range<u32>,
-            out: &'r mut [crate::brick::Partial],
-            samples: &'r mut [Vec<f32>],
-            clock: Option<&'c dyn Fn() -> f64>,
-        }
-        impl ConvoTask for Rows<'_, '_, '_, '_> {
-            type Output = bool;
-            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> bool {
-                let Rows {
-                    spec,
-                    skip,
-                    own,
-                    rows,
-                    out,
-                    samples,
-                    clock,
-                } = self;
-                let w = spec.size()[0] as usize;
-                let mode = if spec.params.fast_loop {
-                    Loop::Batched
-                } else {
-                    Loop::OneSample
-                };
-                let mut none = Vec::new();
-                spec.with_march::<V, K, S, bool>(vol, skip, Some(own), false, |m| {
-                    for (r, vi) in rows.enumerate() {
-                        for hi in 0..w {
-                            let i = r * w + hi;
-                            let kept = samples.get_mut(i).unwrap_or(&mut none);
-                            let t0 = clock.map(|c| c());
-                            m.cast(hi as u32, vi, Out::Part(&mut out[i], kept), mode, None);
-                            if let (Some(c), Some(t0)) = (clock, t0) {
-                                out[i].time = (c() - t0) as f32;
-                            }
-                        }
-                    }
-                    !m.imprecise()
-                })
-            }
-        }
         let n = rows.len() * self.size()[0] as usize;
         let median = self.params.blend.keeps_samples();
         if out.len() != n || (median && samples.len() != n) {
@@ -832,16 +737,24 @@ impl<'a> RenderSpec<'a> {
                 ),
             ));
         }
-        let task = Rows {
-            spec: self,
-            skip,
-            own: *own,
-            rows,
-            out,
-            samples,
-            clock,
-        };
-        if dispatch(vol, kernel, task) {
+        let w = self.size()[0] as usize;
+        let mode = self.loop_mode();
+        let mut none = Vec::new();
+        let exact = self.on_march(vol, kernel, skip, Some(*own), false, &mut |m| {
+            for (r, vi) in rows.clone().enumerate() {
+                for hi in 0..w {
+                    let i = r * w + hi;
+                    let kept = samples.get_mut(i).unwrap_or(&mut none);
+                    let t0 = clock.map(|c| c());
+                    m.cast(hi as u32, vi, Out::Part(&mut out[i], kept), mode, None);
+                    if let (Some(c), Some(t0)) = (clock, t0) {
+                        out[i].time = (c() - t0) as f32;
+                    }
+                }
+            }
+            !m.imprecise()
+        });
+        if exact {
             Ok(())
         } else {
             Err(Error::new(
@@ -861,27 +774,87 @@ impl<'a> RenderSpec<'a> {
         out: &mut [f32],
         clock: Option<&dyn Fn() -> f64>,
     ) {
-        let w = self.size()[0] as usize;
-        let ch = self.channels;
-        let plen = self.params.probe.length();
-        let mode = if self.params.fast_loop {
+        debug_assert_eq!(
+            out.len(),
+            rows.len() * self.size()[0] as usize * self.channels
+        );
+        self.with_march::<V, K, S, ()>(vol, skip, None, false, |m| {
+            self.cast_rows(m, rows, out, clock)
+        });
+    }
+
+    /// The loop mode of [`RenderParams::fast_loop`].
+    fn loop_mode(&self) -> Loop {
+        if self.params.fast_loop {
             Loop::Batched
         } else {
             Loop::OneSample
-        };
-        debug_assert_eq!(out.len(), rows.len() * w * ch);
-        self.with_march::<V, K, S, ()>(vol, skip, None, false, |m| {
-            for (r, vi) in rows.enumerate() {
-                for hi in 0..w {
-                    let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
-                    let t0 = clock.map(|c| c());
-                    m.cast(hi as u32, vi, Out::Pixel(&mut px[..plen]), mode, None);
-                    if let (Some(c), Some(t0)) = (clock, t0) {
-                        px[plen] = (c() - t0) as f32;
-                    }
+        }
+    }
+
+    /// Casts the rays of image rows `rows` with `m` into `out` (as
+    /// [`RenderSpec::render_rows`]).
+    fn cast_rows(
+        &self,
+        m: &dyn Cast,
+        rows: core::ops::Range<u32>,
+        out: &mut [f32],
+        clock: Option<&dyn Fn() -> f64>,
+    ) {
+        let (w, ch) = (self.size()[0] as usize, self.channels);
+        let (plen, mode) = (self.params.probe.length(), self.loop_mode());
+        for (r, vi) in rows.enumerate() {
+            for hi in 0..w {
+                let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
+                let t0 = clock.map(|c| c());
+                m.cast(hi as u32, vi, Out::Pixel(&mut px[..plen]), mode, None);
+                if let (Some(c), Some(t0)) = (clock, t0) {
+                    px[plen] = (c() - t0) as f32;
                 }
             }
-        });
+        }
+    }
+
+    /// [`RenderSpec::with_march`] for a volume and kernel known only at run time: `f`
+    /// sees the loop (compiled here, for every voxel type and kernel).
+    #[cfg(not(test))] // as for `cast`
+    fn on_march<R>(
+        &self,
+        vol: AnyVolume<'_>,
+        kernel: KernelName,
+        skip: Option<&SkipGrid>,
+        own: Option<Own>,
+        traced: bool,
+        f: &mut dyn FnMut(&dyn Cast) -> R,
+    ) -> R {
+        struct OnMarch<'f, 's, 'a, R> {
+            spec: &'s RenderSpec<'a>,
+            skip: Option<&'s SkipGrid>,
+            own: Option<Own>,
+            traced: bool,
+            f: &'f mut dyn FnMut(&dyn Cast) -> R,
+        }
+        impl<R> ConvoTask for OnMarch<'_, '_, '_, R> {
+            type Output = R;
+            fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> R {
+                let OnMarch {
+                    spec,
+                    skip,
+                    own,
+                    traced,
+                    f,
+                } = self;
+                spec.with_march::<V, K, S, R>(vol, skip, own, traced, f)
+            }
+        }
+        let task = OnMarch {
+            spec: self,
+            skip,
+            own,
+            traced,
+            f,
+        };
+        dispatch(vol, kernel, task)
     }
 }
 
