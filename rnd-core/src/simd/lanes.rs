@@ -59,8 +59,8 @@ impl<'a, V: Voxel> LaneBatch<'a, V> {
 /// The checked supports of a batch's lanes.
 type LaneSupports<'d, V, const S: usize> = super::Supports<'d, V, S, LANES>;
 
-/// The lanes' running sums [value, ∂x, ∂y, ∂z] (the gradient only with `G`) into `out`
-/// (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level
+/// The lanes' running sums [value, ∂x, ∂y, ∂z] (the gradient only with `G`; with it,
+/// the value may be left 0 where `batch.value` is false) into `out` (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level
 /// `simd` allows: AVX-512F for support 4 (all lanes in one register), AVX2 (eight lanes
 /// per register; support 4 reads rows with one load each), else portable code. The weights are computed in the code
 /// compiled for the level, so that they vectorize too.
