@@ -701,9 +701,17 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     /// rounded either way, so the same bits).
     #[inline(always)]
     fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
+        // The gradients' components side by side first, so that the products below
+        // run over whole lanes.
+        let mut g = [[0.0f32; N]; 3];
+        for (l, x) in r.iter().enumerate() {
+            for c in 0..3 {
+                g[c][l] = x[c + 1];
+            }
+        }
         let mut out = [0.0f32; N];
-        for (o, x) in out.iter_mut().zip(r) {
-            *o = sq_len(self.wtoi.gradient([x[1], x[2], x[3]]));
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = sq_len(self.wtoi.gradient([g[0][l], g[1][l], g[2][l]]));
         }
         crate::simd::sqrt_lanes(self.simd, &mut out);
         out

@@ -153,9 +153,16 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
     out: &mut [[f32; 4]; LANES],
 ) {
+    let value = !G || batch.value;
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        // SAFETY: AVX-512F is enabled here.
-        store::<G>(&unsafe { sums4_avx512::<V, S, G>(sup, w, dw) }, out)
+        let sums = if value {
+            // SAFETY: AVX-512F is enabled here.
+            unsafe { sums4_avx512::<V, S, G, true>(sup, w, dw) }
+        } else {
+            // SAFETY: AVX-512F is enabled here.
+            unsafe { sums4_avx512::<V, S, G, false>(sup, w, dw) }
+        };
+        store::<G>(&sums, out)
     })
 }
 
@@ -380,13 +387,16 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// [`value4_avx2`] and [`grad4_avx2`] with AVX-512F: the sixteen lanes in one register. Four loads of four
 /// rows each (lanes l, l + 4, l + 8 and l + 12 in the four 128-bit parts, see
 /// `Load::load4x4`) and a 4 × 4 transpose in each part give each row element for all
-/// lanes in order; the arithmetic per lane is [`sums_lanes`]'s.
+/// lanes in order; the arithmetic per lane is [`sums_lanes`]'s. Without `VAL` (a
+/// gradient-only probe) the value sums are left 0 and `((x·w₀)·w₁)` serves the third
+/// gradient sum alone: 8 multiplies and 3 additions per voxel instead of 10 and 4, the
+/// same gradient bits.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
+unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool, const VAL: bool>(
     sup: &LaneSupports<'_, V, S>,
     w: &LaneWeights<S>,
     dw: &LaneWeights<S>,
@@ -432,12 +442,15 @@ unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool>(
             ];
             for (i, &xi) in x.iter().enumerate() {
                 let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
-                val = _mm512_add_ps(val, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), w2));
+                let xw0w1 = _mm512_mul_ps(xw0, w1);
+                if VAL || !G {
+                    val = _mm512_add_ps(val, _mm512_mul_ps(xw0w1, w2));
+                }
                 if G {
                     let xd0 = _mm512_mul_ps(xi, ld(&dw[0][i]));
                     g0 = _mm512_add_ps(g0, _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
                     g1 = _mm512_add_ps(g1, _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
-                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(_mm512_mul_ps(xw0, w1), d2));
+                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(xw0w1, d2));
                 }
             }
         }
