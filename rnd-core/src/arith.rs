@@ -115,6 +115,29 @@ pub(crate) trait Arith {
     ) -> bool {
         false
     }
+    /// [`Arith::convolve_run`]'s samples reduced to the one-channel probe: the values,
+    /// or with `gm` (and `G`) the world gradient magnitudes ([`Arith::gmags`]); false
+    /// as there.
+    #[inline(always)]
+    fn convolve_run_scalars<const G: bool, const N: usize>(
+        &self,
+        ray: &Self::Ray,
+        k: u32,
+        exact: bool,
+        gm: bool,
+        out: &mut [f32; N],
+    ) -> bool {
+        let mut res = [[0.0f32; 4]; N];
+        if !self.convolve_run::<G, N>(ray, k, exact, &mut res) {
+            return false;
+        }
+        *out = if gm {
+            self.gmags(&res)
+        } else {
+            res.map(|r| r[0])
+        };
+        true
+    }
     /// World-space gradient from an index-space one.
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3];
     /// Value, world gradient and world Hessian in f64 for a sample placed at (`n`, `f`)
@@ -472,6 +495,59 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         core::array::from_fn(|a| ray.start[a] + kf * ray.step[a])
     }
 
+    /// The sums of the [`LANES`] consecutive samples from k (lane-major, as
+    /// [`crate::simd::lane_sums_soa`] gives them) when all are inside and before the
+    /// far plane: the placement in lanes, each support's first voxel as a flat index
+    /// straight from it, and the lane sums, with no per-sample copies.
+    #[inline(always)]
+    fn run_sums<const G: bool>(&self, ray: &RefRay, k: u32) -> Option<[[f32; LANES]; 4]> {
+        let p = self.place_lanes::<LANES>(ray, k);
+        let mut all = 1;
+        for l in 0..LANES {
+            all &= p.inside[l] & (p.past[l] ^ 1);
+        }
+        if all == 0 {
+            return None;
+        }
+        // first0 + s0 (first1 + s1 first2): integers below 2^53 (the sizes of data held
+        // in memory), exact in f64.
+        // (Loops over whole lanes, so that they vectorize.)
+        let sz = self.vol.sizes().map(|n| n as f64);
+        let mut flat = [0.0f64; LANES];
+        for (l, x) in flat.iter_mut().enumerate() {
+            *x = f64::from(p.first[1][l]) + sz[1] * f64::from(p.first[2][l]);
+        }
+        for (l, x) in flat.iter_mut().enumerate() {
+            *x = f64::from(p.first[0][l]) + sz[0] * *x;
+        }
+        let mut base = [0usize; LANES];
+        for (b, &x) in base.iter_mut().zip(&flat) {
+            *b = index(x) as usize;
+        }
+        let batch = LaneBatch {
+            vol: &self.vol,
+            base: &base,
+            al: &p.frac,
+            len: LANES,
+            value: self.value,
+        };
+        Some(crate::simd::lane_sums_soa::<V, K, S, G>(self.simd, batch))
+    }
+
+    /// [`gmag`]'s operations on index gradients given component by component (`g[c][l]`):
+    /// the squared world lengths of all lanes first (side by side), then their square
+    /// roots (one vector instruction per eight at AVX2; correctly rounded either way,
+    /// so the same bits).
+    #[inline(always)]
+    fn world_gmags<const N: usize>(&self, g: [&[f32; N]; 3]) -> [f32; N] {
+        let mut out = [0.0f32; N];
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = sq_len(self.wtoi.gradient([g[0][l], g[1][l], g[2][l]]));
+        }
+        crate::simd::sqrt_lanes(self.simd, &mut out);
+        out
+    }
+
     /// [`Arith::place`] of the `N` samples from `k0`, lane by lane and axis by axis
     /// (so that it vectorizes).
     #[inline(always)]
@@ -646,8 +722,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             i += take;
         }
     }
-    /// The placement in lanes, each support's first voxel as a flat index straight
-    /// from it, and the lane sums: no per-sample copies.
+    /// [`Reference::run_sums`], stored sample by sample.
     #[inline(always)]
     fn convolve_run<const G: bool, const N: usize>(
         &self,
@@ -659,62 +734,50 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let Ok(out) = <&mut [[f32; 4]; LANES]>::try_from(&mut out[..]) else {
             return false;
         };
-        let p = self.place_lanes::<LANES>(ray, k);
-        let mut all = 1;
-        for l in 0..LANES {
-            all &= p.inside[l] & (p.past[l] ^ 1);
-        }
-        if all == 0 {
+        let Some(sums) = self.run_sums::<G>(ray, k) else {
             return false;
-        }
-        // first0 + s0 (first1 + s1 first2): integers below 2^53 (the sizes of data held
-        // in memory), exact in f64.
-        // (Loops over whole lanes, so that they vectorize.)
-        let sz = self.vol.sizes().map(|n| n as f64);
-        let mut flat = [0.0f64; LANES];
-        for (l, x) in flat.iter_mut().enumerate() {
-            *x = f64::from(p.first[1][l]) + sz[1] * f64::from(p.first[2][l]);
-        }
-        for (l, x) in flat.iter_mut().enumerate() {
-            *x = f64::from(p.first[0][l]) + sz[0] * *x;
-        }
-        let mut base = [0usize; LANES];
-        for (b, &x) in base.iter_mut().zip(&flat) {
-            *b = index(x) as usize;
-        }
-        let batch = LaneBatch {
-            vol: &self.vol,
-            base: &base,
-            al: &p.frac,
-            len: LANES,
-            value: self.value,
         };
-        crate::simd::lane_sums::<V, K, S, G>(self.simd, batch, out);
+        crate::simd::store_lanes::<G>(&sums, out);
+        true
+    }
+    /// [`Reference::run_sums`] reduced in lanes: no per-sample layout in between.
+    #[inline(always)]
+    fn convolve_run_scalars<const G: bool, const N: usize>(
+        &self,
+        ray: &RefRay,
+        k: u32,
+        _exact: bool,
+        gm: bool,
+        out: &mut [f32; N],
+    ) -> bool {
+        let Ok(out) = <&mut [f32; LANES]>::try_from(&mut out[..]) else {
+            return false;
+        };
+        let Some(s) = self.run_sums::<G>(ray, k) else {
+            return false;
+        };
+        *out = if gm && G {
+            self.world_gmags([&s[1], &s[2], &s[3]])
+        } else {
+            s[0]
+        };
         true
     }
     #[inline(always)]
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3] {
         self.wtoi.gradient(gi)
     }
-    /// [`gmag`]'s operations: the squared lengths of all lanes first (side by side),
-    /// then their square roots (one vector instruction per eight at AVX2; correctly
-    /// rounded either way, so the same bits).
+    /// [`Reference::world_gmags`] of the sums' gradients.
     #[inline(always)]
     fn gmags<const N: usize>(&self, r: &[[f32; 4]; N]) -> [f32; N] {
-        // The gradients' components side by side first, so that the products below
-        // run over whole lanes.
+        // The gradients' components side by side first.
         let mut g = [[0.0f32; N]; 3];
         for (l, x) in r.iter().enumerate() {
             for c in 0..3 {
                 g[c][l] = x[c + 1];
             }
         }
-        let mut out = [0.0f32; N];
-        for (l, o) in out.iter_mut().enumerate() {
-            *o = sq_len(self.wtoi.gradient([g[0][l], g[1][l], g[2][l]]));
-        }
-        crate::simd::sqrt_lanes(self.simd, &mut out);
-        out
+        self.world_gmags([&g[0], &g[1], &g[2]])
     }
     fn second(&self, n: [i64; 3], f: [f32; 3]) -> SecondOrder {
         second_order_at::<V, K, S>(&self.vol, n, f.map(f64::from))

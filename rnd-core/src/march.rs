@@ -235,6 +235,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         // alongside the sums (the strategy checks that they are inside).
         let whole = N > 1 && !everywhere && !tracing && skip.is_none() && below.is_none();
         let runs = whole && !over && !sp.second;
+        // Runs of a one-channel probe are reduced in the strategy's own layout.
+        let gm = p.probe == Probe::GradMag;
+        let scalar_runs = runs && (p.probe == Probe::Value || (gm && G));
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
@@ -254,7 +257,18 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let mut m = 0usize;
         let mut k = k0;
         'ray: while k < k1 {
-            if runs && m == 0 && k1 - k >= N as u32 {
+            if scalar_runs && m == 0 && k1 - k >= N as u32 {
+                let mut xs = [0.0f32; N];
+                if self
+                    .a
+                    .convolve_run_scalars::<G, N>(&ray, k, exact, gm, &mut xs)
+                {
+                    let ks = core::array::from_fn(|i| k + i as u32);
+                    self.blend_scalars::<N>(&mut st, &ks, &xs);
+                    k += N as u32;
+                    continue;
+                }
+            } else if runs && m == 0 && k1 - k >= N as u32 {
                 let mut res = [[0.0f32; 4]; N];
                 if self.a.convolve_run::<G, N>(&ray, k, exact, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
@@ -600,21 +614,28 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         if p.blend != Blend::Over && st.trace.is_none() {
             // One channel under max/sum/mean: no early end, no colour.
             if let Some(xs) = self.scalars::<G, N>(res) {
-                let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
-                st.acc.add_scalars(&xs[..m]);
-                if let Some(kept) = &mut st.kept {
-                    kept.push_scalars(&xs[..m]);
-                }
-                let now = st.acc.acc[0];
-                if p.blend == Blend::Max && (!had || now.to_bits() != before.to_bits()) {
-                    if let Some(i) = xs[..m].iter().position(|x| x.to_bits() == now.to_bits()) {
-                        st.best = Some(ks[i]);
-                    }
-                }
+                self.blend_scalars::<N>(st, ks, &xs[..m]);
                 return false;
             }
         }
         (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i], [0.0; 2]))
+    }
+
+    /// Blends the one-channel probe's values `xs` of samples `ks` (max/min/sum/mean...,
+    /// no trace) in order.
+    #[inline(always)]
+    fn blend_scalars<const N: usize>(&self, st: &mut State<'_>, ks: &[u32; N], xs: &[f32]) {
+        let (had, before) = (st.acc.count > 0, st.acc.acc[0]);
+        st.acc.add_scalars(xs);
+        if let Some(kept) = &mut st.kept {
+            kept.push_scalars(xs);
+        }
+        let now = st.acc.acc[0];
+        if self.spec.params.blend == Blend::Max && (!had || now.to_bits() != before.to_bits()) {
+            if let Some(i) = xs.iter().position(|x| x.to_bits() == now.to_bits()) {
+                st.best = Some(ks[i]);
+            }
+        }
     }
 
     /// Probes and blends one convolved sample k (sums `r`, principal curvatures `curv`

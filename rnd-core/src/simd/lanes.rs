@@ -60,30 +60,42 @@ impl<'a, V: Voxel> LaneBatch<'a, V> {
 type LaneSupports<'d, V, const S: usize> = super::Supports<'d, V, S, LANES>;
 
 /// The lanes' running sums [value, ∂x, ∂y, ∂z] (the gradient only with `G`; with it,
-/// the value may be left 0 where `batch.value` is false) into `out` (one entry per lane), for kernel `K` and the samples of `batch`, at the widest level
-/// `simd` allows: AVX-512F for support 4 (all lanes in one register), AVX2 (eight lanes
-/// per register; support 4 reads rows with one load each), else portable code. The weights are computed in the code
-/// compiled for the level, so that they vectorize too.
+/// the value may be left 0 where `batch.value` is false) into `out` (one entry per
+/// lane): [`lane_sums_soa`], stored sample by sample.
 #[inline(always)]
 pub(crate) fn lane_sums<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     simd: Simd,
     batch: LaneBatch<'_, V>,
     out: &mut [[f32; 4]; LANES],
 ) {
+    store_lanes::<G>(&lane_sums_soa::<V, K, S, G>(simd, batch), out)
+}
+
+/// The lanes' running sums, lane-major (`[value, ∂x, ∂y, ∂z][lane]`; the gradient only
+/// with `G`; with it, the value may be left 0 where `batch.value` is false), for kernel
+/// `K` and the samples of `batch`, at the widest level `simd` allows: AVX-512F for
+/// support 4 (all lanes in one register), AVX2 (eight lanes per register; support 4
+/// reads rows with one load each), else portable code. The weights are computed in the
+/// code compiled for the level, so that they vectorize too.
+#[inline(always)]
+pub(crate) fn lane_sums_soa<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    simd: Simd,
+    batch: LaneBatch<'_, V>,
+) -> [[f32; LANES]; 4] {
     #[cfg(target_arch = "x86_64")]
     if S == 4 && simd.avx512() {
         // SAFETY: a `Simd` of level AVX-512 exists only where it is supported.
-        return unsafe { with_avx512::<V, K, S, G>(batch, out) };
+        return unsafe { with_avx512::<V, K, S, G>(batch) };
     }
     #[cfg(target_arch = "x86_64")]
     if simd.avx2() {
         // SAFETY: a `Simd` of level AVX2 exists only where it is supported.
-        return unsafe { with_avx2::<V, K, S, G>(batch, out) };
+        return unsafe { with_avx2::<V, K, S, G>(batch) };
     }
     let _ = simd;
     let groups = batch.groups();
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        store::<G>(&sums_lanes::<V, S, G>(sup, w, dw, groups), out)
+        sums_lanes::<V, S, G>(sup, w, dw, groups)
     })
 }
 
@@ -132,7 +144,7 @@ fn with_weights<V: Voxel, K: Kernel<S>, const S: usize, const G: bool, R>(
 
 /// Lane-major sums into per-sample results (the value only, without `G`).
 #[inline(always)]
-fn store<const G: bool>(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
+pub(crate) fn store_lanes<const G: bool>(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
     for l in 0..LANES {
         out[l][0] = r[0][l];
         if G {
@@ -151,18 +163,16 @@ fn store<const G: bool>(r: &[[f32; LANES]; 4], out: &mut [[f32; 4]; LANES]) {
 #[target_feature(enable = "avx512f")]
 unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
-    out: &mut [[f32; 4]; LANES],
-) {
+) -> [[f32; LANES]; 4] {
     let value = !G || batch.value;
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        let sums = if value {
+        if value {
             // SAFETY: AVX-512F is enabled here.
             unsafe { sums4_avx512::<V, S, G, true>(sup, w, dw) }
         } else {
             // SAFETY: AVX-512F is enabled here.
             unsafe { sums4_avx512::<V, S, G, false>(sup, w, dw) }
-        };
-        store::<G>(&sums, out)
+        }
     })
 }
 
@@ -174,11 +184,10 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
 #[target_feature(enable = "avx2")]
 unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     batch: LaneBatch<'_, V>,
-    out: &mut [[f32; 4]; LANES],
-) {
+) -> [[f32; LANES]; 4] {
     let (groups, value) = (batch.groups(), batch.value);
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        let sums = if S == 4 && G && value {
+        if S == 4 && G && value {
             // SAFETY: AVX2 is enabled here.
             unsafe { grad4_avx2::<V, S, true>(sup, w, dw) }
         } else if S == 4 && G {
@@ -189,8 +198,7 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
             unsafe { value4_avx2::<V, S>(sup, w) }
         } else {
             sums_lanes::<V, S, G>(sup, w, dw, groups)
-        };
-        store::<G>(&sums, out)
+        }
     })
 }
 
