@@ -330,9 +330,15 @@ pub fn render_part_with(
 }
 
 /// Runs `band` over the bands of [`BAND`] rows of an image of `h` rows whose `out` holds
-/// `per_row` items a row, handed out from one queue to `threads` threads (with one, the
-/// calling thread drains it alone), reporting progress to `control`; stops when it is
-/// cancelled or a band returns false. Returns the rows done.
+/// `per_row` items a row, on `threads` threads (with one, the calling thread takes them
+/// all in order), reporting progress to `control`; stops when it is cancelled or a band
+/// returns false. Returns the rows done.
+///
+/// Each thread owns a contiguous run of the bands and works down it, so that a thread's
+/// next band lies beside its last and finds the volume's voxels it shares with it still
+/// in the core's caches (bands handed out in turn from one queue cost the 256³ volume
+/// ~7% more processor time per band at two threads). A thread whose run is done takes
+/// bands from the far end of the longest run left, so the threads finish together.
 fn bands<T: Send>(
     out: &mut [T],
     per_row: usize,
@@ -342,13 +348,36 @@ fn bands<T: Send>(
     band: impl Fn(core::ops::Range<u32>, &mut [T]) -> bool + Sync,
 ) -> usize {
     let done = AtomicUsize::new(0);
-    let queue = Mutex::new(out.chunks_mut(per_row.max(1) * BAND).enumerate());
-    let work = || loop {
+    let mut chunks: Vec<Option<&mut [T]>> =
+        out.chunks_mut(per_row.max(1) * BAND).map(Some).collect();
+    let n = chunks.len();
+    let t = threads.clamp(1, n.max(1));
+    // Per thread, the bands [start, end) not yet taken from its run, and the chunks.
+    let runs: Vec<std::ops::Range<usize>> = (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
+    let state = Mutex::new((runs, &mut chunks[..]));
+    let next = |me: usize| -> Option<(usize, &mut [T])> {
+        let mut guard = state.lock().ok()?;
+        let (runs, chunks) = &mut *guard;
+        let b = if runs[me].start < runs[me].end {
+            let b = runs[me].start;
+            runs[me].start += 1;
+            b
+        } else {
+            let other = (0..runs.len()).max_by_key(|&i| runs[i].len())?;
+            let r = &mut runs[other];
+            if r.start >= r.end {
+                return None;
+            }
+            r.end -= 1;
+            r.end
+        };
+        chunks.get_mut(b)?.take().map(|c| (b, c))
+    };
+    let work = |me: usize| loop {
         if control.cancelled() {
             break;
         }
-        let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-        let Some((b, chunk)) = next else { break };
+        let Some((b, chunk)) = next(me) else { break };
         let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
         let n = rows.len();
         if !band(rows, chunk) {
@@ -359,12 +388,13 @@ fn bands<T: Send>(
             f(Progress { rows_done, rows: h });
         }
     };
-    if threads <= 1 {
-        work();
+    if t <= 1 {
+        work(0);
     } else {
         std::thread::scope(|s| {
-            for _ in 0..threads {
-                s.spawn(work);
+            for me in 0..t {
+                let work = &work;
+                s.spawn(move || work(me));
             }
         });
     }
@@ -407,6 +437,31 @@ mod tests {
     use rnd_core::skip::{SkipGrid, SkipKind, SkipPlan};
     use rnd_core::txf::Lut;
     use rnd_core::volume::Volume;
+
+    /// Every band is rendered exactly once, into its own rows, by any number of threads
+    /// (more threads than bands included), whatever the image height.
+    #[test]
+    fn bands_cover_every_row_once() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        for h in [1usize, 3, 4, 5, 17, 64, 130] {
+            for t in 1..=7 {
+                let mut out = vec![0u32; h * 3];
+                let calls = AtomicUsize::new(0);
+                let done =
+                    super::bands(&mut out, 3, h, t, &super::Control::new(), |rows, chunk| {
+                        assert_eq!(chunk.len(), rows.len() * 3);
+                        for (i, x) in chunk.iter_mut().enumerate() {
+                            *x += rows.start * 3 + i as u32 + 1;
+                        }
+                        calls.fetch_add(1, Ordering::Relaxed);
+                        true
+                    });
+                assert_eq!(done, h, "h {h}, {t} threads");
+                assert_eq!(calls.into_inner(), h.div_ceil(super::BAND));
+                assert!(out.iter().enumerate().all(|(i, &x)| x == i as u32 + 1));
+            }
+        }
+    }
 
     /// Any number of workers builds the grid one thread builds, for sizes that are not
     /// multiples of the block sizes and slab counts that do not divide evenly.
