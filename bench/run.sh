@@ -9,6 +9,7 @@
 #        ONLY=ref bench/run.sh   (only the engines section)
 #        ONLY=rate bench/run.sh  (only inside samples per second against the machine's peak)
 #        ONLY=vtk bench/run.sh   (only VTK's ray caster; bench/setup-vtk.sh makes its Python)
+#        ONLY=threads bench/run.sh   (only rendr's 2-thread speed-up)
 #        ENGINE=false bench/run.sh   (the main sections with go -ref false)
 #        MAP=0 bench/run.sh   (rendr reads the volumes into memory rather than mapping them)
 set -euo pipefail
@@ -112,6 +113,9 @@ for v in ct syn; do
   done
 done
 
+fi
+
+if [ "${ONLY:-all}" = all ] || [ "${ONLY:-all}" = threads ]; then
 echo
 ROUNDS2=${ROUNDS2:-9}
 echo "## rendr's 2-thread speed-up of the render phase (bspln3, max; RND_VERBOSE render time, volume reading excluded; best of $ROUNDS2 rounds, runs alternating)"
@@ -154,6 +158,9 @@ for v in ct syn; do
   done
 done
 
+fi
+
+if [ "${ONLY:-all}" = all ]; then
 echo
 echo "## Frame time, teem-miter vs rendr go (CT, colour LUT + Blinn-Phong, over, early termination 0.99; whole commands, best of 6 Teem and 12 rendr runs, alternating)"
 echo

@@ -31,6 +31,12 @@ pub use crate::arith::RayGeom;
 pub use crate::march::{Loop, SampleInfo, Trace};
 pub use crate::simd::SimdLevel;
 
+/// How a caller casts a pilot's rays ([`RenderSpec::skip_pays`]): it is handed
+/// `rays(part, parts)`, which casts the pilot rows `part`, `part + parts`, … and gives
+/// their rays' results, and returns the results of every row, in any order (so it may
+/// call `rays(i, n)` for each i < n on n threads).
+pub type PilotCast<'c> = &'c dyn Fn(&(dyn Fn(u32, u32) -> Vec<f32> + Sync)) -> Vec<f32>;
+
 /// Most samples one ray may take ((fcv − ncv) / plane separation).
 pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
 
@@ -502,19 +508,20 @@ impl<'a> RenderSpec<'a> {
     /// Whether building this render's skip grid is likely to pay for itself: always for
     /// an opacity grid (`over`), and for a `max` grid unless a pilot says it would skip
     /// next to nothing (see [`RenderSpec::pilot`]). The image is the same bits either
-    /// way (skipping is exact); only the time differs.
+    /// way (skipping is exact); only the time differs. `cast` casts the pilot's rays
+    /// (see [`PilotCast`]; `&|rays| rays(0, 1)` on the calling thread).
     ///
     /// Not generic, as [`RenderSpec::cast`].
     #[cfg(not(test))] // as for `cast`
-    pub fn skip_pays(&self, vol: AnyVolume<'_>, kernel: KernelName) -> bool {
-        struct Pilot<'s, 'a>(&'s RenderSpec<'a>);
-        impl ConvoTask for Pilot<'_, '_> {
+    pub fn skip_pays(&self, vol: AnyVolume<'_>, kernel: KernelName, cast: PilotCast<'_>) -> bool {
+        struct Pilot<'s, 'a, 'c>(&'s RenderSpec<'a>, PilotCast<'c>);
+        impl ConvoTask for Pilot<'_, '_, '_> {
             type Output = bool;
             fn run<V: Voxel, K: Kernel<S>, const S: usize>(self, vol: Volume<'_, V>) -> bool {
-                self.0.pilot::<V, K, S>(vol)
+                self.0.pilot::<V, K, S>(vol, self.1)
             }
         }
-        dispatch(vol, kernel, Pilot(self))
+        dispatch(vol, kernel, Pilot(self, cast))
     }
 
     /// [`RenderSpec::skip_pays`] for a volume and kernel known at compile time. A `max`
@@ -526,7 +533,11 @@ impl<'a> RenderSpec<'a> {
     /// over the pilot rays, at least one sampled block in 16 lies below the ray's
     /// maximum. Smaller volumes always get their (cheap) grid.
     #[doc(hidden)]
-    pub fn pilot<V: Voxel, K: Kernel<S>, const S: usize>(&self, vol: Volume<'_, V>) -> bool {
+    pub fn pilot<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        vol: Volume<'_, V>,
+        cast: PilotCast<'_>,
+    ) -> bool {
         let kind = match self.skip_kind() {
             None => return false,
             Some(SkipKind::Opacity) => return true,
@@ -536,7 +547,7 @@ impl<'a> RenderSpec<'a> {
         if sizes[0].saturating_mul(sizes[1]).saturating_mul(sizes[2]) <= PILOT_VOXELS {
             return true;
         }
-        self.pilot_says::<V, K, S>(vol, kind)
+        self.pilot_says::<V, K, S>(vol, kind, cast)
     }
 
     /// The pilot of [`RenderSpec::pilot`] (any volume size).
@@ -545,27 +556,33 @@ impl<'a> RenderSpec<'a> {
         &self,
         vol: Volume<'_, V>,
         kind: SkipKind,
+        cast: PilotCast<'_>,
     ) -> bool {
         let Some(plan) = SkipPlan::for_max(&vol, K::NAME, kind) else {
             return false;
         };
         let [w, h] = self.size();
         let (nx, ny) = (w.min(16), h.min(16));
-        let mut px = alloc::vec![0.0f32; self.channels()];
-        let mut maxima = Vec::with_capacity((nx * ny) as usize);
         let outside = self.params.outside;
-        self.with_march::<V, K, S, ()>(vol, None, None, false, |m| {
-            for b in 0..ny {
-                for a in 0..nx {
-                    let (hi, vi) = ((2 * a + 1) * w / (2 * nx), (2 * b + 1) * h / (2 * ny));
-                    m.cast(hi, vi, Out::Pixel(&mut px), Loop::Batched, None);
-                    // (Rays that miss the volume give `outside`; they skip nothing.)
-                    if !px[0].is_nan() && px[0].to_bits() != outside.to_bits() {
-                        maxima.push(px[0]);
+        // The maxima of pilot rows part, part + parts, …
+        let rays = |part: u32, parts: u32| {
+            let mut px = alloc::vec![0.0f32; self.channels()];
+            let mut maxima = Vec::with_capacity((nx * ny) as usize);
+            self.with_march::<V, K, S, ()>(vol, None, None, false, |m| {
+                for b in (part..ny).step_by(parts.max(1) as usize) {
+                    for a in 0..nx {
+                        let (hi, vi) = ((2 * a + 1) * w / (2 * nx), (2 * b + 1) * h / (2 * ny));
+                        m.cast(hi, vi, Out::Pixel(&mut px), Loop::Batched, None);
+                        // (Rays that miss the volume give `outside`; they skip nothing.)
+                        if !px[0].is_nan() && px[0].to_bits() != outside.to_bits() {
+                            maxima.push(px[0]);
+                        }
                     }
                 }
-            }
-        });
+            });
+            maxima
+        };
+        let maxima = cast(&rays);
         let mut bounds = plan.sample_bounds(&vol, 8);
         if maxima.is_empty() || bounds.is_empty() {
             return false;
@@ -1053,7 +1070,7 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
             let Whole(spec, mut out) = self;
             let skip = spec
                 .skip_plan(&vol, K::NAME)
-                .filter(|_| spec.pilot::<V, K, S>(vol))
+                .filter(|_| spec.pilot::<V, K, S>(vol, &|rays| rays(0, 1)))
                 .map(|plan| plan.build(&vol));
             spec.rows_in::<V, K, S>(vol, skip.as_ref(), 0..spec.size()[1], &mut out, None);
             out

@@ -876,8 +876,23 @@ mod tests {
             let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
             for (data, builds) in [(&blob, true), (&noise, false)] {
                 let vol = Volume::new(data, sizes, itow).unwrap();
-                let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind);
+                let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind, &|rays| rays(0, 1));
                 assert_eq!(says, builds, "{probe:?} blob {builds}");
+                // Cast in parts (as on several threads), in any order: the same rays'
+                // results, and the same verdict.
+                let whole = core::cell::RefCell::new(Vec::new());
+                let split = core::cell::RefCell::new(Vec::new());
+                let says3 = spec.pilot_says::<f32, Bspln3, 4>(vol, kind, &|rays| {
+                    *whole.borrow_mut() = rays(0, 1);
+                    let parts: Vec<f32> = (0..3).rev().flat_map(|i| rays(i, 3)).collect();
+                    split.borrow_mut().clone_from(&parts);
+                    parts
+                });
+                assert_eq!(says3, builds);
+                let (mut whole, mut split) = (whole.into_inner(), split.into_inner());
+                whole.sort_by(f32::total_cmp);
+                split.sort_by(f32::total_cmp);
+                assert!(!whole.is_empty() && whole == split);
             }
         }
     }

@@ -18,7 +18,7 @@ use rnd_core::Param;
 
 use crate::{Error, ErrorKind};
 
-/// Rows per work unit.
+/// Rows a thread takes at a time from its own run (see `bands`).
 const BAND: usize = 4;
 
 /// The number of threads the system offers this process (at least 1).
@@ -71,7 +71,7 @@ impl<'c> Control<'c> {
     pub fn new() -> Self {
         Control::default()
     }
-    /// Calls `f` after each band of rows is finished (from the thread that finished
+    /// Calls `f` after each band of rows (one to four) is finished (from the thread that finished
     /// it; calls may come from several threads, `rows_done` only grows).
     pub fn on_progress(mut self, f: &'c (dyn Fn(Progress) + Sync)) -> Self {
         self.progress = Some(f);
@@ -173,13 +173,23 @@ pub fn render_with(
             };
             let skip = spec
                 .skip_plan(&vol, K::NAME)
-                .filter(|_| spec.skip_pays(vol.into(), K::NAME))
+                .filter(|_| {
+                    spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
+                })
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
-            let done = bands(&mut out, w * ch, h, self.threads, control, |rows, chunk| {
-                let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
-                spec.render_rows(vol.into(), K::NAME, skip.as_ref(), rows, chunk, clock);
-                true
-            });
+            let mut none: [(); 0] = [];
+            let done = bands(
+                (&mut out, w * ch),
+                (&mut none, 0),
+                h,
+                self.threads,
+                control,
+                |rows, chunk, _| {
+                    let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
+                    spec.render_rows(vol.into(), K::NAME, skip.as_ref(), rows, chunk, clock);
+                    true
+                },
+            );
             (done == h).then_some(out)
         }
     }
@@ -275,34 +285,32 @@ pub fn render_part_with(
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .map(|plan| build_skip_grid(plan, &vol, self.threads));
-            // Each band's sample lists (none without the median), taken by its worker.
-            let lists: Vec<Mutex<&mut [Vec<f32>]>> =
-                samples.chunks_mut(w * BAND).map(Mutex::new).collect();
-            let done = bands(&mut partials, w, h, self.threads, control, |rows, chunk| {
-                let b = rows.start as usize / BAND;
-                let mut none: [Vec<f32>; 0] = [];
-                let mut guard = lists.get(b).and_then(|l| l.lock().ok());
-                let kept: &mut [Vec<f32>] = match guard.as_deref_mut() {
-                    Some(l) => l,
-                    None => &mut none,
-                };
-                let clock = timed.then_some(&clock as &dyn Fn() -> f64);
-                let r = spec.render_part_rows(
-                    vol.into(),
-                    K::NAME,
-                    skip.as_ref(),
-                    own,
-                    rows,
-                    chunk,
-                    kept,
-                    clock,
-                );
-                if let (Err(e), Ok(mut f)) = (&r, failed.lock()) {
-                    f.get_or_insert_with(|| e.clone());
-                }
-                r.is_ok()
-            });
-            drop(lists);
+            // Each pixel's sample list (none without the median).
+            let per_row = if samples.is_empty() { 0 } else { w };
+            let done = bands(
+                (&mut partials, w),
+                (&mut samples, per_row),
+                h,
+                self.threads,
+                control,
+                |rows, chunk, kept| {
+                    let clock = timed.then_some(&clock as &dyn Fn() -> f64);
+                    let r = spec.render_part_rows(
+                        vol.into(),
+                        K::NAME,
+                        skip.as_ref(),
+                        own,
+                        rows,
+                        chunk,
+                        kept,
+                        clock,
+                    );
+                    if let (Err(e), Ok(mut f)) = (&r, failed.lock()) {
+                        f.get_or_insert_with(|| e.clone());
+                    }
+                    r.is_ok()
+                },
+            );
             if let Some(e) = failed.into_inner().ok().flatten() {
                 return Err(e.into());
             }
@@ -329,58 +337,101 @@ pub fn render_part_with(
     )
 }
 
-/// Runs `band` over the bands of [`BAND`] rows of an image of `h` rows whose `out` holds
-/// `per_row` items a row, on `threads` threads (with one, the calling thread takes them
-/// all in order), reporting progress to `control`; stops when it is cancelled or a band
-/// returns false. Returns the rows done.
+/// Runs `band` over the rows of an image of `h` rows whose `out` holds `per_row` items a
+/// row and `aux` `aux_per_row` (0: `aux` may be empty), on `threads` threads (with one, the
+/// calling thread takes them all in order), reporting progress to `control`; stops when
+/// it is cancelled or a call returns false. Returns the rows done.
 ///
-/// Each thread owns a contiguous run of the bands and works down it, so that a thread's
-/// next band lies beside its last and finds the volume's voxels it shares with it still
-/// in the core's caches (bands handed out in turn from one queue cost the 256³ volume
-/// ~7% more processor time per band at two threads). A thread whose run is done takes
-/// bands from the far end of the longest run left, so the threads finish together.
-fn bands<T: Send>(
-    out: &mut [T],
-    per_row: usize,
+/// Each thread owns a contiguous run of the rows and works down it [`BAND`] rows at a
+/// time, so that its next rows lie beside its last and find the volume's voxels they
+/// share still in the core's caches (bands handed out in turn from one queue cost the
+/// 256³ volume ~7% more processor time at two threads). A thread whose run is done
+/// takes single rows from the far end of the longest run left, so that the threads
+/// finish within about a row of each other.
+fn bands<T: Send, U: Send>(
+    (out, per_row): (&mut [T], usize),
+    (aux, aux_per_row): (&mut [U], usize),
     h: usize,
     threads: usize,
     control: &Control<'_>,
-    band: impl Fn(core::ops::Range<u32>, &mut [T]) -> bool + Sync,
+    band: impl Fn(core::ops::Range<u32>, &mut [T], &mut [U]) -> bool + Sync,
 ) -> usize {
+    /// A thread's rows not yet taken, and their items.
+    struct Run<'o, T, U> {
+        rows: core::ops::Range<usize>,
+        out: &'o mut [T],
+        aux: &'o mut [U],
+    }
     let done = AtomicUsize::new(0);
-    let mut chunks: Vec<Option<&mut [T]>> =
-        out.chunks_mut(per_row.max(1) * BAND).map(Some).collect();
-    let n = chunks.len();
-    let t = threads.clamp(1, n.max(1));
-    // Per thread, the bands [start, end) not yet taken from its run, and the chunks.
-    let runs: Vec<std::ops::Range<usize>> = (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
-    let state = Mutex::new((runs, &mut chunks[..]));
-    let next = |me: usize| -> Option<(usize, &mut [T])> {
-        let mut guard = state.lock().ok()?;
-        let (runs, chunks) = &mut *guard;
-        let b = if runs[me].start < runs[me].end {
-            let b = runs[me].start;
-            runs[me].start += 1;
-            b
+    let t = threads.clamp(1, h.max(1));
+    let (mut rest, mut rest_aux) = (out, aux);
+    let mut runs = Vec::with_capacity(t);
+    for i in 0..t {
+        let rows = i * h / t..(i + 1) * h / t;
+        let n = rows.len();
+        let (cut, cut_aux) = (
+            (n * per_row).min(rest.len()),
+            (n * aux_per_row).min(rest_aux.len()),
+        );
+        let (o, r) = std::mem::take(&mut rest).split_at_mut(cut);
+        let (x, ra) = std::mem::take(&mut rest_aux).split_at_mut(cut_aux);
+        (rest, rest_aux) = (r, ra);
+        runs.push(Run {
+            rows,
+            out: o,
+            aux: x,
+        });
+    }
+    let runs = Mutex::new(runs);
+    // The next rows for thread `me`: BAND from the front of its run, or one from the back
+    // of the longest other.
+    let next = |me: usize| {
+        let mut runs = runs.lock().ok()?;
+        let (i, front) = if !runs[me].rows.is_empty() {
+            (me, true)
         } else {
-            let other = (0..runs.len()).max_by_key(|&i| runs[i].len())?;
-            let r = &mut runs[other];
-            if r.start >= r.end {
-                return None;
-            }
-            r.end -= 1;
-            r.end
+            let i = (0..runs.len()).max_by_key(|&i| runs[i].rows.len())?;
+            (i, false)
         };
-        chunks.get_mut(b)?.take().map(|c| (b, c))
+        let r = &mut runs[i];
+        let len = r.rows.len();
+        if len == 0 {
+            return None;
+        }
+        let n = if front { BAND.min(len) } else { 1 };
+        let (o, x) = (std::mem::take(&mut r.out), std::mem::take(&mut r.aux));
+        let (cut, cut_aux) = if front {
+            (n * per_row, n * aux_per_row)
+        } else {
+            (
+                o.len().saturating_sub(n * per_row),
+                x.len().saturating_sub(n * aux_per_row),
+            )
+        };
+        let ((o1, o2), (x1, x2)) = (
+            o.split_at_mut(cut.min(o.len())),
+            x.split_at_mut(cut_aux.min(x.len())),
+        );
+        let rows;
+        if front {
+            rows = r.rows.start..r.rows.start + n;
+            (r.rows.start, r.out, r.aux) = (rows.end, o2, x2);
+            Some((rows, o1, x1))
+        } else {
+            rows = r.rows.end - n..r.rows.end;
+            (r.rows.end, r.out, r.aux) = (rows.start, o1, x1);
+            Some((rows, o2, x2))
+        }
     };
     let work = |me: usize| loop {
         if control.cancelled() {
             break;
         }
-        let Some((b, chunk)) = next(me) else { break };
-        let rows = (b * BAND) as u32..((b + 1) * BAND).min(h) as u32;
+        let Some((rows, chunk, chunk_aux)) = next(me) else {
+            break;
+        };
         let n = rows.len();
-        if !band(rows, chunk) {
+        if !band(rows.start as u32..rows.end as u32, chunk, chunk_aux) {
             break;
         }
         let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
@@ -399,6 +450,23 @@ fn bands<T: Send>(
         });
     }
     done.load(Ordering::Relaxed)
+}
+
+/// The pilot's rays (see [`rnd_core::render::PilotCast`]) cast on `threads` threads,
+/// each taking every `threads`-th pilot row (with one, on the calling thread).
+fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> Vec<f32> {
+    let n = threads.clamp(1, 16) as u32;
+    if n == 1 {
+        return rays(0, 1);
+    }
+    std::thread::scope(|s| {
+        let parts: Vec<_> = (0..n).map(|i| s.spawn(move || rays(i, n))).collect();
+        // (A part whose thread failed gives no maxima: the verdict is only about time.)
+        parts
+            .into_iter()
+            .flat_map(|p| p.join().unwrap_or_default())
+            .collect()
+    })
 }
 
 fn cancelled() -> Error {
@@ -438,27 +506,42 @@ mod tests {
     use rnd_core::txf::Lut;
     use rnd_core::volume::Volume;
 
-    /// Every band is rendered exactly once, into its own rows, by any number of threads
-    /// (more threads than bands included), whatever the image height.
+    /// Every row is rendered exactly once, into its own items of both slices, by any
+    /// number of threads (more threads than rows included), whatever the image height.
     #[test]
     fn bands_cover_every_row_once() {
         use std::sync::atomic::{AtomicUsize, Ordering};
         for h in [1usize, 3, 4, 5, 17, 64, 130] {
             for t in 1..=7 {
-                let mut out = vec![0u32; h * 3];
-                let calls = AtomicUsize::new(0);
-                let done =
-                    super::bands(&mut out, 3, h, t, &super::Control::new(), |rows, chunk| {
-                        assert_eq!(chunk.len(), rows.len() * 3);
-                        for (i, x) in chunk.iter_mut().enumerate() {
-                            *x += rows.start * 3 + i as u32 + 1;
-                        }
-                        calls.fetch_add(1, Ordering::Relaxed);
-                        true
-                    });
-                assert_eq!(done, h, "h {h}, {t} threads");
-                assert_eq!(calls.into_inner(), h.div_ceil(super::BAND));
-                assert!(out.iter().enumerate().all(|(i, &x)| x == i as u32 + 1));
+                for aux_per_row in [0, 2] {
+                    let mut out = vec![0u32; h * 3];
+                    let mut aux = vec![0u32; h * aux_per_row];
+                    let rows_seen = AtomicUsize::new(0);
+                    let control = super::Control::new();
+                    let done = super::bands(
+                        (&mut out, 3),
+                        (&mut aux, aux_per_row),
+                        h,
+                        t,
+                        &control,
+                        |rows, o, x| {
+                            assert_eq!(o.len(), rows.len() * 3);
+                            assert_eq!(x.len(), rows.len() * aux_per_row);
+                            for (i, v) in o.iter_mut().enumerate() {
+                                *v += rows.start * 3 + i as u32 + 1;
+                            }
+                            for (i, v) in x.iter_mut().enumerate() {
+                                *v += rows.start * aux_per_row as u32 + i as u32 + 1;
+                            }
+                            rows_seen.fetch_add(rows.len(), Ordering::Relaxed);
+                            true
+                        },
+                    );
+                    assert_eq!(done, h, "h {h}, {t} threads");
+                    assert_eq!(rows_seen.into_inner(), h);
+                    assert!(out.iter().enumerate().all(|(i, &v)| v == i as u32 + 1));
+                    assert!(aux.iter().enumerate().all(|(i, &v)| v == i as u32 + 1));
+                }
             }
         }
     }

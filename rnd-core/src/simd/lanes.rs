@@ -196,6 +196,9 @@ unsafe fn with_avx2<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
         } else if S == 4 {
             // SAFETY: AVX2 is enabled here.
             unsafe { value4_avx2::<V, S>(sup, w) }
+        } else if S == 2 {
+            // SAFETY: AVX2 is enabled here.
+            unsafe { sums2_avx2::<V, S, G>(sup, w, dw, groups) }
         } else {
             sums_lanes::<V, S, G>(sup, w, dw, groups)
         }
@@ -238,6 +241,77 @@ fn sums_lanes<V: Voxel, const S: usize, const G: bool>(
                     }
                 }
             }
+        }
+    }
+    r
+}
+
+/// [`sums_lanes`] for support 2 with AVX2: each lane's two voxels along x are one load
+/// (`Load::load2x4`, four lanes a call), and two shuffles put voxel 0 and voxel 1 of
+/// eight lanes in a register each; then the same operations per lane, in the same
+/// order.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn sums2_avx2<V: Voxel, const S: usize, const G: bool>(
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+    groups: usize,
+) -> [[f32; LANES]; 4] {
+    use core::arch::x86_64::*;
+    assert!(S == 2 && LANES.is_multiple_of(8));
+    let LaneSupports {
+        data,
+        base,
+        s0,
+        s01,
+    } = *sup;
+    let ptr = data.as_ptr();
+    // SAFETY: eight readable floats from lane 8 g on (g < LANES / 8).
+    let ld = |v: &[f32; LANES], g: usize| unsafe { _mm256_loadu_ps(v.as_ptr().add(8 * g)) };
+    let mut r = [[0.0f32; LANES]; 4];
+    for g in 0..groups.min(LANES / 8) {
+        let mut acc = [_mm256_setzero_ps(); 4];
+        for k in 0..S {
+            let (w2, d2) = (ld(&w[2][k], g), ld(&dw[2][k], g));
+            for j in 0..S {
+                let (w1, d1) = (ld(&w[1][j], g), ld(&dw[1][j], g));
+                let o = j * s0 + k * s01;
+                // SAFETY: base[l] + o and the voxel after it lie in lane l's support,
+                // checked in `Supports::new`.
+                let p = |l: usize| unsafe { ptr.add(base[8 * g + l] + o) };
+                // SAFETY: two readable voxels at each pointer (above).
+                let [q0, q1] = unsafe { V::load2x4(p(0), p(1), p(2), p(3)) };
+                // SAFETY: as above.
+                let [q2, q3] = unsafe { V::load2x4(p(4), p(5), p(6), p(7)) };
+                // [l0 l1 | l4 l5] and [l2 l3 | l6 l7], each lane's pair side by side.
+                let (a, c) = (_mm256_set_m128(q2, q0), _mm256_set_m128(q3, q1));
+                let xs = [
+                    _mm256_shuffle_ps::<0x88>(a, c),
+                    _mm256_shuffle_ps::<0xDD>(a, c),
+                ];
+                for (i, x) in xs.into_iter().enumerate() {
+                    let xw0 = _mm256_mul_ps(x, ld(&w[0][i], g));
+                    let t = _mm256_mul_ps(_mm256_mul_ps(xw0, w1), w2);
+                    acc[0] = _mm256_add_ps(acc[0], t);
+                    if G {
+                        let d0 = _mm256_mul_ps(x, ld(&dw[0][i], g));
+                        let t1 = _mm256_mul_ps(_mm256_mul_ps(d0, w1), w2);
+                        acc[1] = _mm256_add_ps(acc[1], t1);
+                        let t2 = _mm256_mul_ps(_mm256_mul_ps(xw0, d1), w2);
+                        acc[2] = _mm256_add_ps(acc[2], t2);
+                        let t3 = _mm256_mul_ps(_mm256_mul_ps(xw0, w1), d2);
+                        acc[3] = _mm256_add_ps(acc[3], t3);
+                    }
+                }
+            }
+        }
+        for (c, a) in acc.iter().enumerate() {
+            // SAFETY: eight writable floats from lane 8 g on.
+            unsafe { _mm256_storeu_ps(r[c].as_mut_ptr().add(8 * g), *a) };
         }
     }
     r
