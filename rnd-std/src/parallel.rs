@@ -71,8 +71,8 @@ impl<'c> Control<'c> {
     pub fn new() -> Self {
         Control::default()
     }
-    /// Calls `f` after each band of rows (one to four) is finished (from the thread that finished
-    /// it; calls may come from several threads, `rows_done` only grows).
+    /// Calls `f` after each band of rows (one to four) is finished (from the thread that
+    /// finished it; calls may come from several threads, `rows_done` only grows).
     pub fn on_progress(mut self, f: &'c (dyn Fn(Progress) + Sync)) -> Self {
         self.progress = Some(f);
         self
@@ -356,82 +356,71 @@ fn bands<T: Send, U: Send>(
     control: &Control<'_>,
     band: impl Fn(core::ops::Range<u32>, &mut [T], &mut [U]) -> bool + Sync,
 ) -> usize {
-    /// A thread's rows not yet taken, and their items.
+    /// Rows not yet taken, and their items.
     struct Run<'o, T, U> {
         rows: core::ops::Range<usize>,
         out: &'o mut [T],
         aux: &'o mut [U],
     }
+    impl<'o, T, U> Run<'o, T, U> {
+        /// Splits `n` rows (at most all) and their items off the front, or the back.
+        fn split(&mut self, n: usize, front: bool, per: (usize, usize)) -> Run<'o, T, U> {
+            let n = n.min(self.rows.len());
+            let (o, x) = (std::mem::take(&mut self.out), std::mem::take(&mut self.aux));
+            let (no, nx) = ((n * per.0).min(o.len()), (n * per.1).min(x.len()));
+            if front {
+                let ((o1, o2), (x1, x2)) = (o.split_at_mut(no), x.split_at_mut(nx));
+                let rows = self.rows.start..self.rows.start + n;
+                (self.rows.start, self.out, self.aux) = (rows.end, o2, x2);
+                Run {
+                    rows,
+                    out: o1,
+                    aux: x1,
+                }
+            } else {
+                let (ol, xl) = (o.len() - no, x.len() - nx);
+                let ((o1, o2), (x1, x2)) = (o.split_at_mut(ol), x.split_at_mut(xl));
+                let rows = self.rows.end - n..self.rows.end;
+                (self.rows.end, self.out, self.aux) = (rows.start, o1, x1);
+                Run {
+                    rows,
+                    out: o2,
+                    aux: x2,
+                }
+            }
+        }
+    }
+    let per = (per_row, aux_per_row);
     let done = AtomicUsize::new(0);
     let t = threads.clamp(1, h.max(1));
-    let (mut rest, mut rest_aux) = (out, aux);
-    let mut runs = Vec::with_capacity(t);
-    for i in 0..t {
-        let rows = i * h / t..(i + 1) * h / t;
-        let n = rows.len();
-        let (cut, cut_aux) = (
-            (n * per_row).min(rest.len()),
-            (n * aux_per_row).min(rest_aux.len()),
-        );
-        let (o, r) = std::mem::take(&mut rest).split_at_mut(cut);
-        let (x, ra) = std::mem::take(&mut rest_aux).split_at_mut(cut_aux);
-        (rest, rest_aux) = (r, ra);
-        runs.push(Run {
-            rows,
-            out: o,
-            aux: x,
-        });
-    }
+    let mut all = Run {
+        rows: 0..h,
+        out,
+        aux,
+    };
+    let runs: Vec<_> = (0..t)
+        .map(|i| all.split((i + 1) * h / t - i * h / t, true, per))
+        .collect();
     let runs = Mutex::new(runs);
     // The next rows for thread `me`: BAND from the front of its run, or one from the back
     // of the longest other.
     let next = |me: usize| {
         let mut runs = runs.lock().ok()?;
-        let (i, front) = if !runs[me].rows.is_empty() {
-            (me, true)
-        } else {
-            let i = (0..runs.len()).max_by_key(|&i| runs[i].rows.len())?;
-            (i, false)
-        };
-        let r = &mut runs[i];
-        let len = r.rows.len();
-        if len == 0 {
-            return None;
+        if !runs[me].rows.is_empty() {
+            return Some(runs[me].split(BAND, true, per));
         }
-        let n = if front { BAND.min(len) } else { 1 };
-        let (o, x) = (std::mem::take(&mut r.out), std::mem::take(&mut r.aux));
-        let (cut, cut_aux) = if front {
-            (n * per_row, n * aux_per_row)
-        } else {
-            (
-                o.len().saturating_sub(n * per_row),
-                x.len().saturating_sub(n * aux_per_row),
-            )
-        };
-        let ((o1, o2), (x1, x2)) = (
-            o.split_at_mut(cut.min(o.len())),
-            x.split_at_mut(cut_aux.min(x.len())),
-        );
-        let rows;
-        if front {
-            rows = r.rows.start..r.rows.start + n;
-            (r.rows.start, r.out, r.aux) = (rows.end, o2, x2);
-            Some((rows, o1, x1))
-        } else {
-            rows = r.rows.end - n..r.rows.end;
-            (r.rows.end, r.out, r.aux) = (rows.start, o1, x1);
-            Some((rows, o2, x2))
-        }
+        let i = (0..runs.len()).max_by_key(|&i| runs[i].rows.len())?;
+        (!runs[i].rows.is_empty()).then(|| runs[i].split(1, false, per))
     };
     let work = |me: usize| loop {
         if control.cancelled() {
             break;
         }
-        let Some((rows, chunk, chunk_aux)) = next(me) else {
+        let Some(Run { rows, out, aux }) = next(me) else {
             break;
         };
         let n = rows.len();
-        if !band(rows.start as u32..rows.end as u32, chunk, chunk_aux) {
+        if !band(rows.start as u32..rows.end as u32, out, aux) {
             break;
         }
         let rows_done = done.fetch_add(n, Ordering::Relaxed) + n;
