@@ -701,6 +701,13 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         m: usize,
         out: &mut [[f32; 4]; N],
     ) {
+        // One sample alone (e.g. a `max` floor) costs a whole batch in lanes: in scalars,
+        // the same bits.
+        if m == 1 {
+            let (v, g) = refarith::convolve_placed::<V, K, S>(&self.vol, n[0], f[0], G);
+            out[0] = [v, g[0], g[1], g[2]];
+            return;
+        }
         // LANES samples at a time (a whole batch straight into `out`).
         let mut lanes = Lanes::<S>::default();
         if let Ok(o) = <&mut [[f32; 4]; LANES]>::try_from(&mut out[..]) {

@@ -115,13 +115,16 @@ struct State<'t> {
 
 /// A ray's index-space line for jumps over boxes: `s` counts support starts (plus the
 /// kernel's first offset and, for odd supports, one half), `rd` is 1/`d`, and `e` bounds
-/// how far a sample's count lies from `s + k d`.
+/// how far a sample's count lies from `s + k d`; `h` is `s` counted from the first
+/// sample held, and `end` one past the last support start inside the samples held.
 #[derive(Clone, Copy)]
 struct Jumps {
     s: [f64; 3],
     d: [f64; 3],
     rd: [f64; 3],
     e: [f64; 3],
+    h: [f64; 3],
+    end: [f64; 3],
 }
 
 impl Jumps {
@@ -233,8 +236,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         // Blocks of P samples to add to the batch whole when all are inside and before
         // the far plane (nothing to skip or trace), and runs of N: positions computed
         // alongside the sums (the strategy checks that they are inside).
-        let whole = N > 1 && !everywhere && !tracing && skip.is_none() && below.is_none();
-        let runs = whole && !over && !sp.second;
+        let plain = N > 1 && !everywhere && !tracing && skip.is_none();
+        let whole = plain && below.is_none();
+        // Under `max` with bounds, runs are bounded whole, from the exact line.
+        let runs = plain && !over && !sp.second && (below.is_none() || line.is_some());
         // Runs of a one-channel probe are reduced in the strategy's own layout.
         let gm = p.probe == Probe::GradMag;
         let scalar_runs = runs && (p.probe == Probe::Value || (gm && G));
@@ -258,6 +263,19 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let mut k = k0;
         'ray: while k < k1 {
             if scalar_runs && m == 0 && k1 - k >= N as u32 {
+                // Under `max`: a run whose samples are all inside, before the far plane
+                // and bounded below the floor or the running maximum is counted
+                // unconvolved.
+                if let (Some(g), Some(l)) = (below, &line) {
+                    let j = k + N as u32 - 1;
+                    if let Some(bd) = self.run_bound(g, l, k, j) {
+                        if (bd < st.floor || st.acc.below_max(bd)) && !self.a.past(&ray, j) {
+                            st.unseen += N as u32;
+                            k += N as u32;
+                            continue;
+                        }
+                    }
+                }
                 let mut xs = [0.0f32; N];
                 if self
                     .a
@@ -392,6 +410,15 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 }
             }
             k += cnt;
+            // Under `max` with bounds, the samples waiting go now, so that the next
+            // samples can be a run, bounded whole (where the ray enters, a block of
+            // samples one at a time would otherwise go on until a batch is full).
+            if runs
+                && below.is_some()
+                && self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m))
+            {
+                return self.finish(&mut st, out);
+            }
         }
         self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m));
         if below.is_some() {
@@ -848,9 +875,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// A ray's `line` for [`March::box_run_end`] over samples before `k1`.
     fn jumps(&self, line: &Line, k1: u32) -> Jumps {
         let o = if self.support % 2 == 1 { 0.5 } else { 0.0 };
+        // Support start floor(x + o) + LO: x + o + LO counts it.
+        let s = line.s.map(|s| s + (self.lo as f64 + o));
         Jumps {
-            // Support start floor(x + o) + LO: x + o + LO counts it.
-            s: line.s.map(|s| s + (self.lo as f64 + o)),
+            s,
+            h: core::array::from_fn(|a| s[a] - self.org[a] as f64),
+            end: core::array::from_fn(|a| self.sizes[a] as f64 - self.support as f64 + 1.0),
             d: line.d,
             rd: line.d.map(|d| 1.0 / d),
             // The line's bound, and this f64 arithmetic's rounding, far inside the margin.
@@ -859,6 +889,24 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 line.err[a] + 1e-12 * (s.abs() + k1 as f64 * d.abs() + 3.0)
             }),
         }
+    }
+
+    /// Under `max`: the grid's bound over samples k to j when every one of them provably
+    /// has its whole support among the samples held (`None` otherwise): the support
+    /// starts that the exact line, widened by its error, can reach.
+    #[inline(always)]
+    fn run_bound(&self, g: &SkipGrid, jl: &Jumps, k: u32, j: u32) -> Option<f32> {
+        let (mut lo, mut hi) = ([0i64; 3], [0i64; 3]);
+        let w = (j - k) as f64;
+        for a in 0..3 {
+            let (c, dw) = (jl.h[a] + k as f64 * jl.d[a], w * jl.d[a]);
+            let (x0, x1) = (c + dw.min(0.0) - jl.e[a], c + dw.max(0.0) + jl.e[a]);
+            if !(x0 >= 0.0 && x1 < jl.end[a]) {
+                return None;
+            }
+            (lo[a], hi[a]) = (x0 as i64, x1 as i64);
+        }
+        Some(g.bound_over(lo, hi))
     }
 
     /// The last sample in [k, k1) up to which every sample provably has its support
@@ -896,5 +944,36 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         } else {
             k
         }
+    }
+}
+
+#[cfg(test)]
+impl<A: Arith> March<'_, '_, A> {
+    /// For tests: every run of `n` samples of the ray through (hi, vi) that
+    /// [`March::run_bound`] bounds has each sample inside, with its block's bound at most
+    /// the run's (asserted); the number of runs bounded.
+    pub(crate) fn check_run_bounds(&self, hi: u32, vi: u32, n: u32) -> usize {
+        let (ray, kend) = (self.a.ray(hi, vi), self.spec.kmax + 1);
+        let (Some(g), Some(line)) = (self.skip, self.a.line(&ray, kend)) else {
+            return 0;
+        };
+        let jl = self.jumps(&line, kend);
+        let mut runs = 0;
+        for k in 0..kend.saturating_sub(n) {
+            let Some(b) = self.run_bound(g, &jl, k, k + n - 1) else {
+                continue;
+            };
+            runs += 1;
+            for kk in k..k + n {
+                let Some((at, _)) = self.a.place(&ray, kk) else {
+                    panic!("sample {kk} of a bounded run {k}.. of ray ({hi}, {vi}) is outside");
+                };
+                assert!(
+                    g.bound_at(at) <= b,
+                    "ray ({hi}, {vi}) sample {kk} at {at:?}"
+                );
+            }
+        }
+        runs
     }
 }

@@ -316,14 +316,34 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
     grad: bool,
 ) -> Option<RefSample> {
     let (sz, org) = (vol.sizes(), vol.origin());
-    let mut n = [0i64; 3];
+    let (mut n, mut al) = ([0i64; 3], [0.0f32; 3]);
+    for a in 0..3 {
+        (n[a], al[a]) = place::<K, S>(p[a], org[a], sz[a])?;
+    }
+    let (value, grad_i) = convolve_placed::<V, K, S>(vol, n, al, grad);
+    Some(RefSample {
+        start: n,
+        value,
+        grad_i,
+    })
+}
+
+/// [`convolve`] of a sample already placed: support start `n` (relative to the samples
+/// held, the whole support inside them) and fractions `al`. The value, and the index
+/// gradient when `grad` (else zero).
+#[inline]
+pub(crate) fn convolve_placed<V: Voxel, K: Kernel<S>, const S: usize>(
+    vol: &Volume<'_, V>,
+    n: [i64; 3],
+    al: V3,
+    grad: bool,
+) -> (f32, V3) {
+    let sz = vol.sizes();
     let mut w = [[0.0f32; S]; 3];
     let mut dw = [[0.0f32; S]; 3];
     for a in 0..3 {
-        let (lo, al) = place::<K, S>(p[a], org[a], sz[a])?;
-        n[a] = lo;
         for i in 0..S {
-            let x = al - (K::LO + i as i32) as f32;
+            let x = al[a] - (K::LO + i as i32) as f32;
             w[a][i] = K::k_ref(x);
             if grad {
                 dw[a][i] = K::d1_ref(x);
@@ -337,7 +357,9 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
     for k in 0..S {
         for j in 0..S {
             let o = base + j * s0 + k * s01;
-            let row = &data[o..o + S];
+            let Some(row) = data.get(o..o + S) else {
+                return (f32::NAN, [f32::NAN; 3]);
+            };
             for (i, x) in row.iter().enumerate() {
                 let x = x.to_f32();
                 val += x * w[0][i] * w[1][j] * w[2][k];
@@ -349,11 +371,7 @@ pub fn convolve<V: Voxel, K: Kernel<S>, const S: usize>(
             }
         }
     }
-    Some(RefSample {
-        start: n,
-        value: val,
-        grad_i: g,
-    })
+    (val, g)
 }
 
 /// The longest volume axis (in samples) the reference arithmetic handles: its index

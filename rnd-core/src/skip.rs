@@ -626,6 +626,23 @@ impl SkipGrid {
         self.hi[f[0] + self.nf[0] * (f[1] + self.nf[1] * f[2])]
     }
 
+    /// The upper bound of [`SkipGrid::bound_at`] over every support start in the box
+    /// from `lo` to `hi` (`lo ≤ hi` on each axis, all inside the volume).
+    #[inline(always)]
+    pub fn bound_over(&self, lo: [i64; 3], hi: [i64; 3]) -> f32 {
+        let (a, b) = (lo.map(|x| x as usize / F), hi.map(|x| x as usize / F));
+        let mut m = f32::NEG_INFINITY;
+        for z in a[2]..=b[2] {
+            for y in a[1]..=b[1] {
+                let row = self.nf[0] * (y + self.nf[1] * z);
+                for x in a[0]..=b[0] {
+                    m = m.max(self.hi[row + x]);
+                }
+            }
+        }
+        m
+    }
+
     /// The upper bound of [`SkipGrid::bound_at`] over the whole coarse block of `lo`.
     #[inline(always)]
     pub fn coarse_bound_at(&self, lo: [i64; 3]) -> f32 {
