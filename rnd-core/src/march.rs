@@ -891,11 +891,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
-    /// Under `max`: the grid's bound over samples k to j when every one of them provably
-    /// has its whole support among the samples held (`None` otherwise): the support
-    /// starts that the exact line, widened by its error, can reach.
+    /// The box of support starts (`lo`, `hi`, relative to the samples held) that samples
+    /// k to j can have, when every one of them provably has its whole support among the
+    /// samples held (`None` otherwise): from the exact line, widened by its error.
     #[inline(always)]
-    fn run_bound(&self, g: &SkipGrid, jl: &Jumps, k: u32, j: u32) -> Option<f32> {
+    fn run_box(&self, jl: &Jumps, k: u32, j: u32) -> Option<([i64; 3], [i64; 3])> {
         let (mut lo, mut hi) = ([0i64; 3], [0i64; 3]);
         let w = (j - k) as f64;
         for a in 0..3 {
@@ -906,7 +906,13 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             }
             (lo[a], hi[a]) = (x0 as i64, x1 as i64);
         }
-        Some(g.bound_over(lo, hi))
+        Some((lo, hi))
+    }
+
+    /// Under `max`: the grid's bound over samples k to j (see [`March::run_box`]).
+    #[inline(always)]
+    fn run_bound(&self, g: &SkipGrid, jl: &Jumps, k: u32, j: u32) -> Option<f32> {
+        self.run_box(jl, k, j).map(|(lo, hi)| g.bound_over(lo, hi))
     }
 
     /// The last sample in [k, k1) up to which every sample provably has its support
@@ -950,8 +956,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
 #[cfg(test)]
 impl<A: Arith> March<'_, '_, A> {
     /// For tests: every run of `n` samples of the ray through (hi, vi) that
-    /// [`March::run_bound`] bounds has each sample inside, with its block's bound at most
-    /// the run's (asserted); the number of runs bounded.
+    /// [`March::run_box`] boxes has each sample inside, its support start in the box and
+    /// its block's bound at most [`March::run_bound`]'s (asserted); the number of runs
+    /// boxed.
     pub(crate) fn check_run_bounds(&self, hi: u32, vi: u32, n: u32) -> usize {
         let (ray, kend) = (self.a.ray(hi, vi), self.spec.kmax + 1);
         let (Some(g), Some(line)) = (self.skip, self.a.line(&ray, kend)) else {
@@ -960,7 +967,10 @@ impl<A: Arith> March<'_, '_, A> {
         let jl = self.jumps(&line, kend);
         let mut runs = 0;
         for k in 0..kend.saturating_sub(n) {
-            let Some(b) = self.run_bound(g, &jl, k, k + n - 1) else {
+            let (Some((b0, b1)), Some(b)) = (
+                self.run_box(&jl, k, k + n - 1),
+                self.run_bound(g, &jl, k, k + n - 1),
+            ) else {
                 continue;
             };
             runs += 1;
@@ -968,6 +978,11 @@ impl<A: Arith> March<'_, '_, A> {
                 let Some((at, _)) = self.a.place(&ray, kk) else {
                     panic!("sample {kk} of a bounded run {k}.. of ray ({hi}, {vi}) is outside");
                 };
+                let boxed = (0..3).all(|a| b0[a] <= at[a] && at[a] <= b1[a]);
+                assert!(
+                    boxed,
+                    "ray ({hi}, {vi}) sample {kk} at {at:?}, box {b0:?} {b1:?}"
+                );
                 assert!(
                     g.bound_at(at) <= b,
                     "ray ({hi}, {vi}) sample {kk} at {at:?}"

@@ -468,19 +468,27 @@ impl ViewIndex {
     /// in composing the map are some 2^-29 of that bound: inside its margin.)
     #[inline]
     pub(crate) fn line(&self, ray: &RefRay, kmax: u32) -> Option<crate::arith::Line> {
-        let (p, q) = (ray.start.map(|x| x as f64), ray.step.map(|x| x as f64));
-        let pmax: [f64; 3] = core::array::from_fn(|c| p[c].abs() + kmax as f64 * q[c].abs());
+        let (p, q) = (ray.start.map(f64::from), ray.step.map(f64::from));
+        let km = f64::from(kmax);
+        let pmax = [0, 1, 2].map(|c| p[c].abs() + km * q[c].abs());
         let dot = |r: &[f64; 3], x: &[f64; 3]| r[0] * x[0] + r[1] * x[1] + r[2] * x[2];
         let unit = 1.0 / (1u32 << 24) as f64;
-        let line = crate::arith::Line {
-            s: core::array::from_fn(|a| dot(&self.a[a], &p) + self.b[a]),
-            d: core::array::from_fn(|a| dot(&self.a[a], &q)),
-            err: core::array::from_fn(|a| {
-                16.0 * unit * (dot(&self.amag[a], &pmax) + self.bmag[a] + 1.0)
-            }),
+        // (Plain loops: this runs once or twice per ray.)
+        let mut line = crate::arith::Line {
+            s: [0.0; 3],
+            d: [0.0; 3],
+            err: [0.0; 3],
         };
-        let fin = |v: [f64; 3]| v.iter().all(|x| x.is_finite());
-        (fin(line.s) && fin(line.d) && fin(line.err)).then_some(line)
+        let mut all = 0.0;
+        for a in 0..3 {
+            line.s[a] = dot(&self.a[a], &p) + self.b[a];
+            line.d[a] = dot(&self.a[a], &q);
+            line.err[a] = 16.0 * unit * (dot(&self.amag[a], &pmax) + self.bmag[a] + 1.0);
+            all += line.s[a] + line.d[a] + line.err[a];
+        }
+        // A NaN or infinity anywhere makes the sum so (as may a finite overflow: then
+        // no line, which is always safe).
+        all.is_finite().then_some(line)
     }
 }
 
