@@ -19,7 +19,7 @@ use crate::convo::{ConvoSample, SecondOrder};
 use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
-use crate::skip::{SkipGrid, SkipKind, COARSE_EMPTY, FINE_EMPTY};
+use crate::skip::{SkipGrid, SkipKind, FINE, FINE_EMPTY};
 
 /// Which loop casts a ray (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -137,6 +137,109 @@ impl Jumps {
             ok &= (lim[a][0] <= x) & (x <= lim[a][1]);
         }
         ok
+    }
+}
+
+/// A walk along a ray's exact line ([`Jumps`]) through the fine blocks of an opacity
+/// grid, by sample number: per axis, whether it is known, the block that the support
+/// starts of the samples from the last one looked at surely lie in (and its first
+/// support start), and the first sample after them whose does not surely.
+#[derive(Default)]
+struct Walk {
+    known: [bool; 3],
+    blk: [usize; 3],
+    face: [f64; 3],
+    next: [u32; 3],
+}
+
+impl Walk {
+    /// The stretch from sample k (before `k1`) whose support starts surely lie in one
+    /// fine block: its end and the block's flags; None when sample k's is not sure.
+    #[inline(always)]
+    fn step(&mut self, jl: &Jumps, sk: &SkipGrid, k: u32, k1: u32) -> Option<(u32, u8)> {
+        for a in 0..3 {
+            if !self.known[a] || self.next[a] <= k {
+                // Where the line just left a block, the next block along it first.
+                let near = self.known[a] && self.next[a] == k;
+                self.known[a] = (near && self.cross(jl, a, k, k1)) || self.axis(jl, a, k, k1);
+                if !self.known[a] {
+                    return None;
+                }
+            }
+        }
+        let end = self.next[0].min(self.next[1]).min(self.next[2]);
+        Some((end, sk.fine_flags(self.blk)))
+    }
+
+    /// On axis `a`: the fine block that sample k's support start surely lies in, and
+    /// the first later sample (at most `k1`) whose does not surely; false when sample
+    /// k's count lies within the line's error of a block's face or of the ends of the
+    /// support starts held.
+    #[inline(always)]
+    fn axis(&mut self, jl: &Jumps, a: usize, k: u32, k1: u32) -> bool {
+        let x = jl.h[a] + k as f64 * jl.d[a];
+        let (x0, x1) = (x - jl.e[a], x + jl.e[a]);
+        if !(x0 >= 0.0 && x1 < jl.end[a]) {
+            return false;
+        }
+        let blk = x0 as i64 as usize / FINE;
+        if x1 as i64 as usize / FINE != blk {
+            return false;
+        }
+        self.blk[a] = blk;
+        self.face[a] = (blk * FINE) as f64;
+        self.sure_to(jl, a, k, k1)
+    }
+
+    /// [`Walk::axis`] where sample k is the first after the block of axis `a`: the
+    /// next block along the line, when k surely lies in it.
+    #[inline(always)]
+    fn cross(&mut self, jl: &Jumps, a: usize, k: u32, k1: u32) -> bool {
+        let up = jl.d[a] > 0.0;
+        if !up && self.blk[a] == 0 {
+            return false;
+        }
+        let f = FINE as f64;
+        self.blk[a] = if up { self.blk[a] + 1 } else { self.blk[a] - 1 };
+        self.face[a] += if up { f } else { -f };
+        self.sure_to(jl, a, k, k1)
+    }
+
+    /// Whether sample k surely lies in the block of axis `a` (first support start
+    /// `face`), and if so the first later sample that does not surely (into `next`).
+    #[inline(always)]
+    fn sure_to(&mut self, jl: &Jumps, a: usize, k: u32, k1: u32) -> bool {
+        let (h, d, e) = (jl.h[a], jl.d[a], jl.e[a]);
+        // Sample j is surely in the block when lo <= x_j < hi.
+        let lo = self.face[a] + e;
+        let hi = (self.face[a] + FINE as f64).min(jl.end[a]) - e;
+        let x = h + k as f64 * d;
+        if !(lo <= x && x < hi) {
+            return false;
+        }
+        // Up to t along the line; the first sample past t, checked in the samples' own
+        // arithmetic (the line is straight, so if samples k and n − 1 are sure, every
+        // one between is).
+        let t = if d > 0.0 {
+            (hi - h) * jl.rd[a]
+        } else if d < 0.0 {
+            (lo - h) * jl.rd[a]
+        } else {
+            f64::INFINITY
+        };
+        let mut n = if t < k1 as f64 {
+            (t as u32).max(k) + 1
+        } else {
+            k1
+        };
+        while n > k + 1 && {
+            let xn = h + (n - 1) as f64 * d;
+            !(lo <= xn && xn < hi)
+        } {
+            n -= 1;
+        }
+        self.next[a] = n;
+        true
     }
 }
 
@@ -259,6 +362,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             }
             return self.finish(&mut st, out);
         }
+        // Under `over` with the opacity grid, a walk through its fine blocks.
+        if let (Some(sk), Some(l)) = (skip, &line) {
+            self.walk::<G, N, P>(&ray, sk, l, (k0, k1), &mut st, &mut b);
+            return self.finish(&mut st, out);
+        }
         let mut m = 0usize;
         let mut k = k0;
         'ray: while k < k1 {
@@ -363,8 +471,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 if let Some(sk) = skip {
                     let flags = sk.flags_at(n);
                     if flags & FINE_EMPTY != 0 {
-                        // Inside with opacity 0: blending changes only the count. With
-                        // the coarse flag, every sample up to `last` is too.
+                        // Inside with opacity 0: blending changes only the count (the
+                        // walk takes these rays when they have a line).
                         if tracing {
                             if self.flush::<G, N>(&ray, &mut st, &mut b, core::mem::take(&mut m)) {
                                 return self.finish(&mut st, out);
@@ -372,30 +480,6 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                             A::blend(&mut st.acc, &mut st.transp, &[0.0; MAX_CHANNELS]);
                             self.emit(&ray, kk, &mut st, Some([0.0; 4]), [0.0; MAX_CHANNELS], true);
                             continue;
-                        }
-                        if let (Some(l), true) = (line, flags & COARSE_EMPTY != 0) {
-                            let (mut n, mut from) = (n, kk);
-                            while let Some(j) = self.empty_run(&ray, sk, &l, n, from, k1) {
-                                st.acc.add_transparent(j - from + 1);
-                                k = j + 1;
-                                // The sample after a run often starts another: placed
-                                // alone, not in a block, to see.
-                                let one = self.a.place_block::<1>(&ray, k, false);
-                                match A::block_at(&one, 0) {
-                                    Some((nk, _))
-                                        if k < k1
-                                            && !A::block_past(&one, 0)
-                                            && sk.flags_at(nk) & (FINE_EMPTY | COARSE_EMPTY)
-                                                == FINE_EMPTY | COARSE_EMPTY =>
-                                    {
-                                        (n, from) = (nk, k)
-                                    }
-                                    _ => continue 'ray,
-                                }
-                            }
-                            if from > kk {
-                                continue 'ray;
-                            }
                         }
                         st.acc.add_transparent(1);
                         continue;
@@ -855,21 +939,89 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
-    /// Under `over`: the last sample of the run from sample k (support start `n`, in an
-    /// empty coarse block) that [`March::box_run_end`] shows to be empty, when the run
-    /// is longer than one sample and ends before the far plane.
+    /// Under `over` with the opacity grid (no trace): the samples `k0 .. k1` of the
+    /// ray, in stretches from a [`Walk`] along its exact line: a stretch in an empty
+    /// fine block counts at once (when its last sample is before the far plane); the
+    /// other samples are placed and go one at a time, as without the walk.
     #[inline(always)]
-    fn empty_run(
+    fn walk<const G: bool, const N: usize, const P: usize>(
         &self,
         ray: &A::Ray,
         sk: &SkipGrid,
         jl: &Jumps,
-        n: [i64; 3],
-        k: u32,
-        k1: u32,
-    ) -> Option<u32> {
-        let j = self.box_run_end(jl, sk.empty_box(n), k, k1);
-        (j > k + 1 && !self.a.past(ray, j)).then_some(j)
+        (k0, k1): (u32, u32),
+        st: &mut State<'_>,
+        b: &mut Batch<A::Frac, N>,
+    ) {
+        let mut m = 0usize;
+        let mut w = Walk::default();
+        // Samples [p0, k) wait to be placed.
+        let (mut p0, mut k) = (k0, k0);
+        'walk: {
+            while k < k1 {
+                let (end, flags) = w.step(jl, sk, k, k1).unwrap_or((k + 1, 0));
+                if flags & FINE_EMPTY != 0 && !(end > 1 && self.a.past(ray, end - 1)) {
+                    if self.place_run::<G, N, P>(ray, sk, (p0, k), st, b, &mut m) {
+                        break 'walk;
+                    }
+                    st.acc.add_transparent(end - k);
+                    p0 = end;
+                } else {
+                    // Whole blocks of P go at once.
+                    let whole = p0 + (end - p0) / P as u32 * P as u32;
+                    if self.place_run::<G, N, P>(ray, sk, (p0, whole), st, b, &mut m) {
+                        break 'walk;
+                    }
+                    p0 = whole;
+                }
+                k = end;
+            }
+            self.place_run::<G, N, P>(ray, sk, (p0, k1), st, b, &mut m);
+        }
+        // (None wait after early termination; some may when a sample is past the far
+        // plane.)
+        self.flush::<G, N>(ray, st, b, m);
+    }
+
+    /// Places samples `from .. to`, `P` at a time, and takes them in order: a sample
+    /// outside counts for nothing, one in an empty fine block is transparent, the
+    /// others join the batch (`m` waiting); true when the ray ends (early termination,
+    /// or a sample past the far plane: the samples waiting are then still to go).
+    #[inline(always)]
+    fn place_run<const G: bool, const N: usize, const P: usize>(
+        &self,
+        ray: &A::Ray,
+        sk: &SkipGrid,
+        (from, to): (u32, u32),
+        st: &mut State<'_>,
+        b: &mut Batch<A::Frac, N>,
+        m: &mut usize,
+    ) -> bool {
+        let mut k = from;
+        while k < to {
+            let cnt = (to - k).min(P as u32);
+            let pb = self.a.place_block::<P>(ray, k, false);
+            for i in 0..cnt as usize {
+                let kk = k + i as u32;
+                if kk > 0 && A::block_past(&pb, i) {
+                    return true;
+                }
+                let Some((n, f)) = A::block_at(&pb, i) else {
+                    continue;
+                };
+                if sk.flags_at(n) & FINE_EMPTY != 0 {
+                    st.acc.add_transparent(1);
+                    continue;
+                }
+                (b.n[*m], b.f[*m], b.k[*m]) = (n, f, kk);
+                *m += 1;
+                if *m == N && self.flush::<G, N>(ray, st, b, core::mem::take(m)) {
+                    return true;
+                }
+            }
+            k += cnt;
+        }
+        false
     }
 
     /// A ray's `line` for [`March::box_run_end`] over samples before `k1`.
@@ -955,6 +1107,36 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
 
 #[cfg(test)]
 impl<A: Arith> March<'_, '_, A> {
+    /// For tests: every stretch that a [`Walk`] gives along the ray through (hi, vi),
+    /// from its first sample to the far plane, has each sample inside and its support
+    /// start in the walk's fine block (asserted); the number of samples so shown.
+    pub(crate) fn check_walk(&self, hi: u32, vi: u32) -> usize {
+        let (ray, kend) = (self.a.ray(hi, vi), self.spec.kmax + 1);
+        let (Some(g), Some(line)) = (self.skip, self.a.line(&ray, kend)) else {
+            return 0;
+        };
+        let jl = self.jumps(&line, kend);
+        let mut w = Walk::default();
+        let (mut k, mut shown) = (0, 0);
+        while k < kend {
+            let Some((end, _)) = w.step(&jl, g, k, kend) else {
+                k += 1;
+                continue;
+            };
+            assert!(end > k && end <= kend);
+            for kk in k..end {
+                let Some((at, _)) = self.a.place(&ray, kk) else {
+                    panic!("sample {kk} of stretch {k}..{end} of ray ({hi}, {vi}) is outside");
+                };
+                let blk = at.map(|x| x as usize / FINE);
+                assert_eq!(blk, w.blk, "ray ({hi}, {vi}) sample {kk} at {at:?}");
+            }
+            shown += (end - k) as usize;
+            k = end;
+        }
+        shown
+    }
+
     /// For tests: every run of `n` samples of the ray through (hi, vi) that
     /// [`March::run_box`] boxes has each sample inside, its support start in the box and
     /// its block's bound at most the box's (as [`March::run_bound`] gives it; asserted);

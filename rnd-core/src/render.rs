@@ -908,6 +908,9 @@ trait Cast {
     /// For tests: [`March::check_run_bounds`].
     #[cfg(test)]
     fn check_run_bounds(&self, hi: u32, vi: u32, n: u32) -> usize;
+    /// For tests: [`March::check_walk`].
+    #[cfg(test)]
+    fn check_walk(&self, hi: u32, vi: u32) -> usize;
     /// Whether a brick's ray could not be cast exactly (see [`Own`]).
     #[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
     fn imprecise(&self) -> bool;
@@ -920,6 +923,10 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     #[cfg(test)]
     fn check_run_bounds(&self, hi: u32, vi: u32, n: u32) -> usize {
         March::check_run_bounds(self, hi, vi, n)
+    }
+    #[cfg(test)]
+    fn check_walk(&self, hi: u32, vi: u32) -> usize {
+        March::check_walk(self, hi, vi)
     }
     fn imprecise(&self) -> bool {
         self.imprecise.get()
@@ -1104,43 +1111,59 @@ mod tests {
     use crate::blend::Blend;
     use crate::kernel::{Bspln2, Bspln3, Tent};
 
-    /// Under `max`, a run of samples that [`March`] bounds whole (and may count
-    /// unconvolved) has every sample inside, each bounded by the run's bound: in both
-    /// arithmetics, for supports 2, 3 and 4, perspective and orthographic cameras along
-    /// an axis and obliquely, on a volume held from a grid origin other than zero.
-    #[test]
-    fn run_bounds_hold_every_sample() {
-        fn rays<K: Kernel<S>, const S: usize>(vol: Volume<'_, f32>) -> usize {
-            let mut runs = 0;
-            for (reference, ortho) in [(true, true), (true, false), (false, true), (false, false)] {
-                for from in [[0.0, -40.0, 0.5], [31.0, -17.0, 23.0], [-9.0, 13.0, -35.0]] {
-                    let mut p = RenderParams::new(CameraSpec {
-                        from,
-                        at: [0.3, -0.2, 0.1],
-                        up: [0.0, 0.0, 1.0],
-                        near: -15.0,
-                        far: 15.0,
-                        fov: 40.0,
-                        size: [24, 20],
-                        orthographic: ortho,
-                    });
-                    (p.blend, p.probe, p.reference) = (Blend::Max, Probe::Value, reference);
-                    p.plane_sep = 0.37;
-                    let spec = RenderSpec::new(p, None, None, &[]).unwrap();
-                    let g = spec.skip_grid(&vol, K::NAME).unwrap();
-                    runs += spec.with_march::<f32, K, S, usize>(vol, Some(&g), None, false, |m| {
-                        let mut n = 0;
-                        for vi in 0..20 {
-                            for hi in 0..24 {
-                                n += m.check_run_bounds(hi, vi, 16) + m.check_run_bounds(hi, vi, 8);
-                            }
-                        }
-                        n
-                    });
-                }
+    /// Renders' cameras for the checks below: both arithmetics, perspective and
+    /// orthographic, along an axis and obliquely, a step of 0.37 (`max` of the value, or
+    /// `over` of a LUT that is transparent below 100); `f` runs on each ray's
+    /// [`Cast`] and the sum of what it gives is returned.
+    fn each_ray<K: Kernel<S>, const S: usize>(
+        vol: Volume<'_, f32>,
+        over: bool,
+        f: impl Fn(&dyn Cast, u32, u32) -> usize,
+    ) -> usize {
+        let lut = crate::txf::Lut::new(
+            0.0,
+            256.0,
+            (0..8)
+                .map(|i| [1.0, 0.5, 0.2, (i / 3) as f32 * 0.3])
+                .collect(),
+        )
+        .unwrap();
+        let mut sum = 0;
+        for (reference, ortho) in [(true, true), (true, false), (false, true), (false, false)] {
+            for from in [[0.0, -40.0, 0.5], [31.0, -17.0, 23.0], [-9.0, 13.0, -35.0]] {
+                let mut p = RenderParams::new(CameraSpec {
+                    from,
+                    at: [0.3, -0.2, 0.1],
+                    up: [0.0, 0.0, 1.0],
+                    near: -15.0,
+                    far: 15.0,
+                    fov: 40.0,
+                    size: [24, 20],
+                    orthographic: ortho,
+                });
+                (p.blend, p.probe) = if over {
+                    (Blend::Over, Probe::Rgba)
+                } else {
+                    (Blend::Max, Probe::Value)
+                };
+                p.reference = reference;
+                p.plane_sep = 0.37;
+                let spec = RenderSpec::new(p, over.then_some(&lut), None, &[]).unwrap();
+                let g = spec.skip_grid(&vol, K::NAME).unwrap();
+                sum += spec.with_march::<f32, K, S, usize>(vol, Some(&g), None, false, |m| {
+                    (0..20)
+                        .flat_map(|vi| (0..24).map(move |hi| (hi, vi)))
+                        .map(|(hi, vi)| f(m, hi, vi))
+                        .sum()
+                });
             }
-            runs
         }
+        sum
+    }
+
+    /// A volume of 21 × 18 × 23 values in 0 .. 257, whole and held from grid index
+    /// (2, 1, 3) on (as a brick holds its part); `f` runs on each.
+    fn on_volumes(f: impl Fn(Volume<'_, f32>)) {
         let sizes = [21usize, 18, 23];
         let data: Vec<f32> = (0..sizes.iter().product::<usize>())
             .map(|i| ((i * 7919) % 257) as f32)
@@ -1165,10 +1188,34 @@ mod tests {
             }
         }
         let part = Volume::region(&held, sizes, b, itow).unwrap();
-        for vol in [whole, part] {
-            assert!(rays::<Tent, 2>(vol) > 1000);
-            assert!(rays::<Bspln2, 3>(vol) > 1000);
-            assert!(rays::<Bspln3, 4>(vol) > 1000);
-        }
+        f(whole);
+        f(part);
+    }
+
+    /// Under `max`, a run of samples that [`March`] bounds whole (and may count
+    /// unconvolved) has every sample inside, each bounded by the run's bound, for
+    /// supports 2, 3 and 4 (see [`each_ray`] and [`on_volumes`]).
+    #[test]
+    fn run_bounds_hold_every_sample() {
+        let runs =
+            |m: &dyn Cast, hi, vi| m.check_run_bounds(hi, vi, 16) + m.check_run_bounds(hi, vi, 8);
+        on_volumes(|vol| {
+            assert!(each_ray::<Tent, 2>(vol, false, runs) > 1000);
+            assert!(each_ray::<Bspln2, 3>(vol, false, runs) > 1000);
+            assert!(each_ray::<Bspln3, 4>(vol, false, runs) > 1000);
+        });
+    }
+
+    /// Under `over`, every sample of a stretch that the walk through the fine blocks
+    /// gives is inside, with its support start in the walk's block, for supports 2, 3
+    /// and 4 (see [`each_ray`] and [`on_volumes`]).
+    #[test]
+    fn walks_hold_every_sample() {
+        let walk = |m: &dyn Cast, hi, vi| m.check_walk(hi, vi);
+        on_volumes(|vol| {
+            assert!(each_ray::<Tent, 2>(vol, true, walk) > 10_000);
+            assert!(each_ray::<Bspln2, 3>(vol, true, walk) > 10_000);
+            assert!(each_ray::<Bspln3, 4>(vol, true, walk) > 10_000);
+        });
     }
 }

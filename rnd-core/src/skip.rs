@@ -27,6 +27,8 @@ use crate::voxel::Voxel;
 const B: usize = 8;
 /// Fine block edge length in support starts (divides [`B`]).
 const F: usize = 4;
+/// [`F`], for walks through the fine blocks.
+pub(crate) const FINE: usize = F;
 const _: () = assert!(B.is_multiple_of(F));
 /// Fine blocks per coarse block along each axis.
 const R: usize = B / F;
@@ -576,6 +578,12 @@ impl SkipGrid {
     #[inline(always)]
     pub fn flags_at(&self, lo: [i64; 3]) -> u8 {
         let b = [lo[0] as usize / F, lo[1] as usize / F, lo[2] as usize / F];
+        self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
+    }
+
+    /// The flags of fine block `b` (block numbers per axis, inside the grid).
+    #[inline(always)]
+    pub fn fine_flags(&self, b: [usize; 3]) -> u8 {
         self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
     }
 
