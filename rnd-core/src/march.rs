@@ -128,6 +128,30 @@ struct Jumps {
 }
 
 impl Jumps {
+    /// The samples in `0 .. kend` outside which none can have its support start among
+    /// the samples held (a few more than do: these are placed and checked); None when
+    /// none can.
+    #[inline(always)]
+    fn may_be_inside(&self, kend: u32) -> Option<(u32, u32)> {
+        let (mut k0, mut k1) = (0.0f64, kend as f64);
+        for a in 0..3 {
+            // A support start's count lies within e of x = h + k d; held: in [0, end).
+            let (h, d, e) = (self.h[a], self.d[a], self.e[a]);
+            if d == 0.0 {
+                if !(h + e >= 0.0 && h - e < self.end[a]) {
+                    return None;
+                }
+                continue;
+            }
+            let (t0, t1) = ((-e - h) * self.rd[a], (self.end[a] + e - h) * self.rd[a]);
+            k0 = k0.max(t0.min(t1) - 1.0);
+            k1 = k1.min(t0.max(t1) + 2.0);
+        }
+        // (NaN bounds, from a line beyond f64, leave every sample.)
+        let (k0, k1) = (k0.max(0.0) as u32, k1.min(kend as f64) as u32);
+        (k0 < k1).then_some((k0, k1))
+    }
+
     /// Whether sample j's exact position lies within `lim` on every axis.
     #[inline(always)]
     fn member(&self, lim: &[[f64; 2]; 3], j: u32) -> bool {
@@ -312,6 +336,22 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             }
             None => (0, kend),
         };
+        // Under `over` with the opacity grid, untraced and not a brick's, the walk from
+        // the samples that the exact line shows may be inside (no span needed).
+        if let (Some(g), false, true, None) = (
+            self.skip,
+            st.trace.is_some(),
+            N > 1 && !everywhere,
+            &self.own,
+        ) {
+            if let (SkipKind::Opacity, Some(l)) = (g.kind(), self.a.line(&ray, kend)) {
+                let jl = self.jumps(&l, kend);
+                if let Some(ks) = jl.may_be_inside(kend) {
+                    self.walk::<G, N, P>(&ray, g, &jl, ks, &mut st);
+                }
+                return self.finish(&mut st, out);
+            }
+        }
         // With an exact span every sample of [k0, k1) is inside and before the far plane.
         let (k0, k1, exact) = if N > 1 && !everywhere {
             match self.a.span(&ray, kend) {
@@ -364,7 +404,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
         // Under `over` with the opacity grid, a walk through its fine blocks.
         if let (Some(sk), Some(l)) = (skip, &line) {
-            self.walk::<G, N, P>(&ray, sk, l, (k0, k1), &mut st, &mut b);
+            self.walk::<G, N, P>(&ray, sk, l, (k0, k1), &mut st);
             return self.finish(&mut st, out);
         }
         let mut m = 0usize;
@@ -951,8 +991,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         jl: &Jumps,
         (k0, k1): (u32, u32),
         st: &mut State<'_>,
-        b: &mut Batch<A::Frac, N>,
     ) {
+        let b = &mut Batch::<A::Frac, N> {
+            n: [[0; 3]; N],
+            f: [A::Frac::default(); N],
+            k: [0; N],
+        };
         let mut m = 0usize;
         let mut w = Walk::default();
         // Samples [p0, k) wait to be placed.
