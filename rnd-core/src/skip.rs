@@ -6,9 +6,9 @@
 //!   convolution can reach (a skipped sample would add nothing; its "inside" status,
 //!   which decides outsideValue, is kept); for a LUT over two quantities, for every
 //!   pair it can reach: the reachable values × [0, the block's gradient-magnitude bound]
-//!   (the bound `max` renders of `gm` use), any curvature. Fine blocks (4 support starts per axis)
-//!   decide single samples; coarse blocks (8 per axis, every fine block inside empty)
-//!   carry the distance map that long jumps use.
+//!   (the bound `max` renders of `gm` use), any curvature. Fine blocks (4 support
+//!   starts per axis) decide samples, and the ray's walk through them whole stretches;
+//!   coarse blocks (8 per axis, every fine block inside empty) speed up the build.
 //! - `max` of the value or the gradient magnitude: an upper bound on the quantity per
 //!   block, with a proven margin for f32 rounding, so a sample whose block's bound is
 //!   at most the ray's running maximum is counted without convolving it (the maximum
@@ -59,9 +59,6 @@ pub struct SkipGrid {
     /// Coarse blocks per axis and which of them are empty (every fine block in it is).
     nb: [usize; 3],
     empty: Vec<bool>,
-    /// Chebyshev distance, in blocks, from each block to the nearest non-empty one
-    /// (0 for a non-empty block; saturates at 255; blocks beyond the grid do not count).
-    dist: Vec<u8>,
     /// Upper bounds per fine and per coarse block (the `max` kinds only).
     hi: Vec<f32>,
     coarse_hi: Vec<f32>,
@@ -547,10 +544,6 @@ impl<'l> SkipPlan<'l> {
 
     /// The grid from the filled `cells`.
     pub fn finish(self, cells: SkipCells) -> SkipGrid {
-        let dist = match self.test {
-            Test::Opacity { .. } => chessboard_distance(self.nb, &cells.empty),
-            Test::Bound(_) => Vec::new(),
-        };
         SkipGrid {
             kind: self.kind,
             kernel: self.kernel,
@@ -559,7 +552,6 @@ impl<'l> SkipPlan<'l> {
             fine: cells.fine,
             nb: self.nb,
             empty: cells.empty,
-            dist,
             hi: cells.hi,
             coarse_hi: cells.coarse_hi,
         }
@@ -595,24 +587,11 @@ impl SkipGrid {
     }
 
     /// True when every convolution whose support starts in the coarse block of `lo`
-    /// (all three axes inside the volume) has zero LUT opacity; then
-    /// [`SkipGrid::empty_box`] applies.
+    /// (all three axes inside the volume) has zero LUT opacity.
     #[inline(always)]
     pub fn coarse_empty_at(&self, lo: [i64; 3]) -> bool {
         let b = [lo[0] as usize / B, lo[1] as usize / B, lo[2] as usize / B];
         self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
-    }
-
-    /// For support start `lo` in an empty coarse block: the box of support starts, `[first,
-    /// last]` per axis, whose blocks are all empty (`lo`'s block widened on every side by
-    /// its distance to the nearest non-empty block, less one). Parts of the box beyond
-    /// the volume hold no support start of an inside sample.
-    #[inline(always)]
-    pub fn empty_box(&self, lo: [i64; 3]) -> [[i64; 2]; 3] {
-        let b = lo.map(|x| x.div_euclid(B as i64));
-        let i = b[0] as usize + self.nb[0] * (b[1] as usize + self.nb[1] * b[2] as usize);
-        let r = i64::from(self.dist[i]) - 1;
-        b.map(|x| [(x - r) * B as i64, (x + r + 1) * B as i64 - 1])
     }
 
     /// What the grid records.
@@ -667,12 +646,6 @@ impl SkipGrid {
         })
     }
 
-    /// The coarse blocks and their Chebyshev distance map (for tests).
-    #[doc(hidden)]
-    pub fn distances(&self) -> (&[usize; 3], &[bool], &[u8]) {
-        (&self.nb, &self.empty, &self.dist)
-    }
-
     /// Fraction of fine blocks marked empty.
     pub fn empty_fraction(&self) -> f64 {
         let n = self.fine.iter().filter(|&&e| e & FINE_EMPTY != 0).count();
@@ -680,72 +653,9 @@ impl SkipGrid {
     }
 }
 
-/// Chebyshev (chessboard) distance from every cell of an `nb` grid to the nearest cell
-/// with `empty` false, saturating at 255 (also when there is none): a forward and a
-/// backward raster pass, each taking 1 + the least distance of the 13 neighbours (of 26)
-/// already visited, which is exact for this metric. The grid is padded with a layer of
-/// saturated cells so that every cell has all its neighbours.
-pub fn chessboard_distance(nb: [usize; 3], empty: &[bool]) -> Vec<u8> {
-    let p = nb.map(|n| n + 2);
-    let at = |x: usize, y: usize, z: usize| x + p[0] * (y + p[1] * z);
-    let mut d = alloc::vec![u8::MAX; p[0] * p[1] * p[2]];
-    for z in 0..nb[2] {
-        for y in 0..nb[1] {
-            for x in 0..nb[0] {
-                if !empty[x + nb[0] * (y + nb[1] * z)] {
-                    d[at(x + 1, y + 1, z + 1)] = 0;
-                }
-            }
-        }
-    }
-    // Offsets of the 13 neighbours before a cell in raster order.
-    let (sy, sz) = (p[0] as isize, (p[0] * p[1]) as isize);
-    let mut before = Vec::with_capacity(13);
-    for dz in -1isize..=1 {
-        for dy in -1isize..=1 {
-            for dx in -1isize..=1 {
-                if (dz, dy, dx) < (0, 0, 0) {
-                    before.push(dx + sy * dy + sz * dz);
-                }
-            }
-        }
-    }
-    let mut relax = |i: usize, sign: isize| {
-        if d[i] != 0 {
-            let m = before
-                .iter()
-                .map(|&o| d[i.wrapping_add_signed(sign * o)])
-                .min()
-                .unwrap_or(u8::MAX);
-            d[i] = d[i].min(m.saturating_add(1));
-        }
-    };
-    for z in 1..=nb[2] {
-        for y in 1..=nb[1] {
-            for x in 1..=nb[0] {
-                relax(at(x, y, z), 1);
-            }
-        }
-    }
-    for z in (1..=nb[2]).rev() {
-        for y in (1..=nb[1]).rev() {
-            for x in (1..=nb[0]).rev() {
-                relax(at(x, y, z), -1);
-            }
-        }
-    }
-    let mut out = Vec::with_capacity(empty.len());
-    for z in 1..=nb[2] {
-        for y in 1..=nb[1] {
-            out.extend_from_slice(&d[at(1, y, z)..at(nb[0] + 1, y, z)]);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{chessboard_distance, SkipGrid};
+    use super::SkipGrid;
     use alloc::vec::Vec;
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
@@ -1125,30 +1035,5 @@ mod tests {
             check_grid::<Bspln3, 4>(&SkipGrid::new(&vol, KernelName::Bspln3, &lut), vol, &lut, &pts)?;
         }
 
-        /// The two-pass transform equals the brute-force Chebyshev distance to the
-        /// nearest non-empty cell (255 when there is none or it is farther).
-        #[test]
-        fn chessboard_distance_is_exact(
-            nb in prop::array::uniform3(1usize..7),
-            bits in prop::collection::vec(0u8..10, 216),
-        ) {
-            let n = nb[0] * nb[1] * nb[2];
-            // Mostly empty grids, so distances above 1 occur.
-            let empty: Vec<bool> = bits[..n].iter().map(|&b| b != 0).collect();
-            let d = chessboard_distance(nb, &empty);
-            let at = |i: usize| [i % nb[0], (i / nb[0]) % nb[1], i / (nb[0] * nb[1])];
-            for i in 0..n {
-                let p = at(i);
-                let want = (0..n)
-                    .filter(|&j| !empty[j])
-                    .map(|j| {
-                        let q = at(j);
-                        (0..3).map(|a| p[a].abs_diff(q[a])).max().unwrap_or(0)
-                    })
-                    .min()
-                    .map_or(255, |m| m.min(255)) as u8;
-                prop_assert_eq!(d[i], want, "cell {:?} of {:?}", p, nb);
-            }
-        }
     }
 }
