@@ -9,6 +9,7 @@
 //! batch skips changes nothing (outside samples are not counted by the probes that
 //! batch; a sample of zero opacity under `over` changes only the count).
 
+use alloc::vec::Vec;
 use core::cell::Cell;
 
 use crate::arith::{gmag, Arith, Line, Memo};
@@ -161,6 +162,43 @@ impl Jumps {
             ok &= (lim[a][0] <= x) & (x <= lim[a][1]);
         }
         ok
+    }
+}
+
+/// Per pixel of a render, the samples outside which none can have its support start in
+/// a fine block of an opacity grid that is not empty. Made from a model of the rays'
+/// lines (pixel (hi, vi): `h + hi ph + vi pv + k d`, which orthographic views follow),
+/// each block's corners taken back to pixels and samples; a ray uses its window only
+/// when its own line lies within [`SLACK`] of the model's.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Windows {
+    size: [u32; 2],
+    h: [f64; 3],
+    ph: [f64; 3],
+    pv: [f64; 3],
+    d: [f64; 3],
+    k: Vec<[u32; 2]>,
+}
+
+/// How far a ray's line, widened by its error, may lie from the model of [`Windows`]
+/// (per axis, in support starts); blocks are widened by twice as much.
+const SLACK: f64 = 0.25;
+
+impl Windows {
+    /// The window of pixel (hi, vi), when its line `jl` follows the model.
+    #[inline(always)]
+    fn of(&self, jl: &Jumps, hi: u32, vi: u32) -> Option<(u32, u32)> {
+        if hi >= self.size[0] || vi >= self.size[1] || jl.d != self.d {
+            return None;
+        }
+        for a in 0..3 {
+            let m = self.h[a] + hi as f64 * self.ph[a] + vi as f64 * self.pv[a];
+            if !((jl.h[a] - m).abs() + jl.e[a] <= SLACK) {
+                return None;
+            }
+        }
+        let [k0, k1] = self.k[(hi + self.size[0] * vi) as usize];
+        Some((k0, k1))
     }
 }
 
@@ -347,7 +385,21 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             if let (SkipKind::Opacity, Some(l)) = (g.kind(), self.a.line(&ray, kend)) {
                 let jl = self.jumps(&l, kend);
                 if let Some(ks) = jl.may_be_inside(kend) {
-                    self.walk::<G, N, P>(&ray, g, &jl, ks, &mut st);
+                    // Outside its window a sample is outside or transparent, which only
+                    // the count sees, and only whether it is zero: the window first, the
+                    // rest only while nothing is counted.
+                    match g.windows().and_then(|w| w.of(&jl, hi, vi)) {
+                        Some((w0, w1)) => {
+                            let (w0, w1) = (ks.0.max(w0), ks.1.min(w1));
+                            if w0 < w1 {
+                                self.walk::<G, N, P>(&ray, g, &jl, (w0, w1), &mut st, false);
+                            }
+                            if st.acc.count == 0 {
+                                self.walk::<G, N, P>(&ray, g, &jl, ks, &mut st, true);
+                            }
+                        }
+                        None => self.walk::<G, N, P>(&ray, g, &jl, ks, &mut st, false),
+                    }
                 }
                 return self.finish(&mut st, out);
             }
@@ -404,7 +456,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
         // Under `over` with the opacity grid, a walk through its fine blocks.
         if let (Some(sk), Some(l)) = (skip, &line) {
-            self.walk::<G, N, P>(&ray, sk, l, (k0, k1), &mut st);
+            self.walk::<G, N, P>(&ray, sk, l, (k0, k1), &mut st, false);
             return self.finish(&mut st, out);
         }
         let mut m = 0usize;
@@ -982,7 +1034,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// Under `over` with the opacity grid (no trace): the samples `k0 .. k1` of the
     /// ray, in stretches from a [`Walk`] along its exact line: a stretch in an empty
     /// fine block counts at once (when its last sample is before the far plane); the
-    /// other samples are placed and go one at a time, as without the walk.
+    /// other samples are placed and go one at a time, as without the walk. With
+    /// `until_counted`, only until a sample is counted.
     #[inline(always)]
     fn walk<const G: bool, const N: usize, const P: usize>(
         &self,
@@ -991,6 +1044,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         jl: &Jumps,
         (k0, k1): (u32, u32),
         st: &mut State<'_>,
+        until_counted: bool,
     ) {
         let b = &mut Batch::<A::Frac, N> {
             n: [[0; 3]; N],
@@ -1003,6 +1057,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let (mut p0, mut k) = (k0, k0);
         'walk: {
             while k < k1 {
+                if until_counted && st.acc.count > 0 {
+                    break 'walk;
+                }
                 let (end, flags) = w.step(jl, sk, k, k1).unwrap_or((k + 1, 0));
                 if flags & FINE_EMPTY != 0 && !(end > 1 && self.a.past(ray, end - 1)) {
                     if self.place_run::<G, N, P>(ray, sk, (p0, k), st, b, &mut m) {
@@ -1149,8 +1206,110 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     }
 }
 
+impl<A: Arith> March<'_, '_, A> {
+    /// The [`Windows`] of this render's rays through its opacity grid; None without
+    /// one, when the rays' lines do not follow one model (perspective views) or when
+    /// the memory is not there.
+    pub(crate) fn windows(&self) -> Option<Windows> {
+        use crate::math::v3::{cross, dot, sub};
+        use crate::math::{ceil, floor};
+        let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
+        let sp = self.spec;
+        let kend = if sp.once { 1 } else { sp.kmax + 1 };
+        let jumps = |hi, vi| Some(self.jumps(&self.a.line(&self.a.ray(hi, vi), kend)?, kend));
+        let (o, x, y) = (jumps(0, 0)?, jumps(1, 0)?, jumps(0, 1)?);
+        if x.d != o.d || y.d != o.d {
+            return None;
+        }
+        let (ph, pv, d) = (sub(x.h, o.h), sub(y.h, o.h), o.d);
+        // (hi, vi, k) of a point: the inverse of the columns (ph, pv, d).
+        let det = dot(ph, cross(pv, d));
+        let inv = [cross(pv, d), cross(d, ph), cross(ph, pv)].map(|r| r.map(|c| c / det));
+        if !inv.iter().flatten().all(|c| c.is_finite()) {
+            return None;
+        }
+        let [w, h] = sp.size();
+        let mut k = Vec::new();
+        k.try_reserve_exact(w as usize * h as usize).ok()?;
+        k.resize(w as usize * h as usize, [u32::MAX, 0]);
+        let wide = 2.0 * SLACK;
+        for b in g.full_blocks() {
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for c in 0..8 {
+                let p: [f64; 3] = core::array::from_fn(|a| {
+                    let f = if (c >> a) & 1 == 1 {
+                        FINE as f64 + wide
+                    } else {
+                        -wide
+                    };
+                    b[a] as f64 + f - o.h[a]
+                });
+                for r in 0..3 {
+                    let t = dot(inv[r], p);
+                    (lo[r], hi[r]) = (lo[r].min(t), hi[r].max(t));
+                }
+            }
+            if !lo.iter().chain(&hi).all(|t| t.is_finite()) {
+                return None;
+            }
+            // Whole pixels and samples, one more on each side for rounding.
+            let first = |t: f64| (floor(t) - 1.0).max(0.0);
+            let (h0, h1) = (first(lo[0]), (ceil(hi[0]) + 1.0).min(w as f64 - 1.0));
+            let (v0, v1) = (first(lo[1]), (ceil(hi[1]) + 1.0).min(h as f64 - 1.0));
+            let (k0, k1) = (first(lo[2]), (ceil(hi[2]) + 2.0).min(kend as f64));
+            if h0 > h1 || v0 > v1 || k0 >= k1 {
+                continue;
+            }
+            for vi in v0 as usize..=v1 as usize {
+                for px in &mut k[vi * w as usize..][h0 as usize..=h1 as usize] {
+                    px[0] = px[0].min(k0 as u32);
+                    px[1] = px[1].max(k1 as u32);
+                }
+            }
+        }
+        Some(Windows {
+            size: [w, h],
+            h: o.h,
+            ph,
+            pv,
+            d,
+            k,
+        })
+    }
+}
+
 #[cfg(test)]
 impl<A: Arith> March<'_, '_, A> {
+    /// For tests: with the render's [`Windows`], every sample of the ray through (hi,
+    /// vi) whose support start lies in a fine block that is not empty lies in the ray's
+    /// window (asserted); the number of such samples.
+    pub(crate) fn check_windows(&self, hi: u32, vi: u32) -> usize {
+        let kend = self.spec.kmax + 1;
+        let (Some(g), Some(w)) = (self.skip, self.windows()) else {
+            return 0;
+        };
+        let ray = self.a.ray(hi, vi);
+        let Some(l) = self.a.line(&ray, kend) else {
+            return 0;
+        };
+        let Some((k0, k1)) = w.of(&self.jumps(&l, kend), hi, vi) else {
+            return 0;
+        };
+        let mut full = 0;
+        for k in 0..kend {
+            if let Some((n, _)) = self.a.place(&ray, k) {
+                if g.flags_at(n) & FINE_EMPTY == 0 {
+                    assert!(
+                        (k0..k1).contains(&k),
+                        "ray ({hi}, {vi}) sample {k} at {n:?} not in {k0}..{k1}"
+                    );
+                    full += 1;
+                }
+            }
+        }
+        full
+    }
+
     /// For tests: every stretch that a [`Walk`] gives along the ray through (hi, vi),
     /// from its first sample to the far plane, has each sample inside and its support
     /// start in the walk's fine block (asserted); the number of samples so shown.

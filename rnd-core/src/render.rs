@@ -490,6 +490,19 @@ impl<'a> RenderSpec<'a> {
         self.skip_plan(vol, kernel).map(|plan| plan.build(vol))
     }
 
+    /// Aims `grid`, made for this render's volume `vol` and kernel `K`, at this
+    /// render's camera: under `over`, each ray of an orthographic view then walks
+    /// first the samples that can reach a block that is not empty (the same bits).
+    #[doc(hidden)]
+    pub fn aim<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        vol: Volume<'_, V>,
+        grid: &mut SkipGrid,
+    ) {
+        let w = self.with_march::<V, K, S, _>(vol, Some(&*grid), None, false, |m| m.windows());
+        grid.set_windows(w);
+    }
+
     /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
     /// several threads; the same grid).
     #[doc(hidden)]
@@ -911,6 +924,11 @@ trait Cast {
     /// For tests: [`March::check_walk`].
     #[cfg(test)]
     fn check_walk(&self, hi: u32, vi: u32) -> usize;
+    /// For tests: [`March::check_windows`].
+    #[cfg(test)]
+    fn check_windows(&self, hi: u32, vi: u32) -> usize;
+    /// [`March::windows`].
+    fn windows(&self) -> Option<crate::march::Windows>;
     /// Whether a brick's ray could not be cast exactly (see [`Own`]).
     #[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
     fn imprecise(&self) -> bool;
@@ -927,6 +945,13 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     #[cfg(test)]
     fn check_walk(&self, hi: u32, vi: u32) -> usize {
         March::check_walk(self, hi, vi)
+    }
+    #[cfg(test)]
+    fn check_windows(&self, hi: u32, vi: u32) -> usize {
+        March::check_windows(self, hi, vi)
+    }
+    fn windows(&self) -> Option<crate::march::Windows> {
+        March::windows(self)
     }
     fn imprecise(&self) -> bool {
         self.imprecise.get()
@@ -1085,7 +1110,11 @@ pub fn render(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> 
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .filter(|_| spec.pilot::<V, K, S>(vol, &|rays| rays(0, 1)))
-                .map(|plan| plan.build(&vol));
+                .map(|plan| {
+                    let mut g = plan.build(&vol);
+                    spec.aim::<V, K, S>(vol, &mut g);
+                    g
+                });
             spec.rows_in::<V, K, S>(vol, skip.as_ref(), 0..spec.size()[1], &mut out, None);
             out
         }
@@ -1203,6 +1232,18 @@ mod tests {
             assert!(each_ray::<Tent, 2>(vol, false, runs) > 1000);
             assert!(each_ray::<Bspln2, 3>(vol, false, runs) > 1000);
             assert!(each_ray::<Bspln3, 4>(vol, false, runs) > 1000);
+        });
+    }
+
+    /// Under `over`, every sample whose support start lies in a fine block that is not
+    /// empty lies in its ray's window, for rays that follow the windows' model
+    /// (orthographic views; see [`each_ray`] and [`on_volumes`]).
+    #[test]
+    fn windows_hold_every_sample_not_empty() {
+        let win = |m: &dyn Cast, hi, vi| m.check_windows(hi, vi);
+        on_volumes(|vol| {
+            assert!(each_ray::<Tent, 2>(vol, true, win) > 10_000);
+            assert!(each_ray::<Bspln3, 4>(vol, true, win) > 10_000);
         });
     }
 

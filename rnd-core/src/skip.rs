@@ -62,6 +62,9 @@ pub struct SkipGrid {
     /// Upper bounds per fine and per coarse block (the `max` kinds only).
     hi: Vec<f32>,
     coarse_hi: Vec<f32>,
+    /// Per pixel of the last render it was aimed for, the samples that can reach a
+    /// block that is not empty ([`crate::render::RenderSpec::aim`]).
+    windows: Option<crate::march::Windows>,
 }
 
 /// Flag of a fine block: every sample whose support starts in it is transparent.
@@ -554,6 +557,7 @@ impl<'l> SkipPlan<'l> {
             empty: cells.empty,
             hi: cells.hi,
             coarse_hi: cells.coarse_hi,
+            windows: None,
         }
     }
 }
@@ -597,6 +601,26 @@ impl SkipGrid {
     /// What the grid records.
     pub fn kind(&self) -> SkipKind {
         self.kind
+    }
+
+    /// Every fine block that is not empty: its first support start per axis.
+    pub(crate) fn full_blocks(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
+        let nf = self.nf;
+        self.fine
+            .iter()
+            .enumerate()
+            .filter(|&(_, &f)| f & FINE_EMPTY == 0)
+            .map(move |(i, _)| [i % nf[0], i / nf[0] % nf[1], i / (nf[0] * nf[1])].map(|b| b * F))
+    }
+
+    /// The windows the grid was last aimed with.
+    pub(crate) fn windows(&self) -> Option<&crate::march::Windows> {
+        self.windows.as_ref()
+    }
+
+    /// Keeps `w` as the grid's windows.
+    pub(crate) fn set_windows(&mut self, w: Option<crate::march::Windows>) {
+        self.windows = w;
     }
 
     /// Whether the grid was built as `kind` for `kernel` on a volume of `sizes` (a

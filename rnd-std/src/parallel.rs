@@ -176,7 +176,11 @@ pub fn render_with(
                 .filter(|_| {
                     spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
                 })
-                .map(|plan| build_skip_grid(plan, &vol, self.threads));
+                .map(|plan| {
+                    let mut g = build_skip_grid(plan, &vol, self.threads);
+                    spec.aim::<V, K, S>(vol, &mut g);
+                    g
+                });
             let mut none: [(); 0] = [];
             let done = bands(
                 (&mut out, w * ch),
