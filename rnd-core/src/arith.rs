@@ -89,8 +89,9 @@ pub(crate) trait Arith {
     fn tau(&self, ray: &Self::Ray, k: u32) -> f32;
     /// Sample numbers `[lo, hi)` within `[0, kend)` outside which no sample is inside,
     /// and whether every sample in it is inside and before the far plane (an exact
-    /// span); None when no sample is inside.
-    fn span(&self, ray: &Self::Ray, kend: u32) -> Option<(u32, u32, bool)>;
+    /// span); None when no sample is inside. With it, [`Arith::line`] over `0 .. kend`
+    /// (found along the way).
+    fn span(&self, ray: &Self::Ray, kend: u32) -> (Option<(u32, u32, bool)>, Option<Line>);
     /// The ray's index-space line with its error bound (None: no jumps on this ray).
     fn line(&self, ray: &Self::Ray, kend: u32) -> Option<Line>;
     /// Index-space sums [value, ∂x, ∂y, ∂z] (gradient only with `G`) of the first `m`
@@ -351,7 +352,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
         let z = ray.g.start_v[2] + k as f64 * ray.g.step_v[2];
         ((-z - self.cam.ncv) / (self.cam.fcv - self.cam.ncv)) as f32
     }
-    fn span(&self, ray: &F64Ray, kmax1: u32) -> Option<(u32, u32, bool)> {
+    fn span(&self, ray: &F64Ray, kmax1: u32) -> (Option<(u32, u32, bool)>, Option<Line>) {
         // The samples before the far plane: -z(k) never decreases (the step points away
         // from the eye), so the stopping condition is false … false true … true.
         let (s, d) = (ray.g.start_v[2], ray.g.step_v[2]);
@@ -363,7 +364,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
                 Some((lo, hi)) => (lo, hi, true),
                 None => (0, kend, false),
             };
-        (lo < hi).then_some((lo, hi, exact))
+        ((lo < hi).then_some((lo, hi, exact)), self.line(ray, kmax1))
     }
     fn line(&self, ray: &F64Ray, kend: u32) -> Option<Line> {
         // s + k d rounded twice: within 2^-52 (|s| + k |d|), and a generous margin.
@@ -685,10 +686,11 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let cam = self.cam;
         (-Self::view(ray, k)[2] - cam.ncv) / (cam.fcv - cam.ncv)
     }
-    fn span(&self, ray: &RefRay, kend: u32) -> Option<(u32, u32, bool)> {
+    fn span(&self, ray: &RefRay, kend: u32) -> (Option<(u32, u32, bool)>, Option<Line>) {
         let kmax = kend.saturating_sub(1);
-        refarith::inside_span::<V, K, S>(&self.vix, ray, &self.vol, kmax)
-            .map(|(a, b)| (a, b + 1, false))
+        let line = self.vix.line(ray, kmax);
+        let span = refarith::inside_span::<V, K, S>(line.as_ref(), &self.vol, kmax);
+        (span.map(|(a, b)| (a, b + 1, false)), line)
     }
     fn line(&self, ray: &RefRay, kend: u32) -> Option<Line> {
         self.vix.line(ray, kend.saturating_sub(1))

@@ -166,10 +166,11 @@ impl Jumps {
 }
 
 /// Per pixel of a render, the samples outside which none can have its support start in
-/// a fine block of an opacity grid that is not empty. Made from a model of the rays'
-/// lines (pixel (hi, vi): `h + hi ph + vi pv + k d`, which orthographic views follow),
-/// each block's corners taken back to pixels and samples; a ray uses its window only
-/// when its own line lies within [`SLACK`] of the model's.
+/// a fine block of an opacity grid that is not empty, as bits (one per `c` samples,
+/// `wpp` words a pixel, word i of every pixel in plane i). Made from a model of the rays' lines (pixel (hi, vi):
+/// `h + hi ph + vi pv + k d`, which orthographic views follow), each block's corners
+/// taken back to pixels and samples; a ray uses its window only when its own line lies
+/// within [`SLACK`] of the model's.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Windows {
     size: [u32; 2],
@@ -177,17 +178,23 @@ pub(crate) struct Windows {
     ph: [f64; 3],
     pv: [f64; 3],
     d: [f64; 3],
-    k: Vec<[u32; 2]>,
+    c: u32,
+    wpp: usize,
+    bits: Vec<u64>,
 }
 
 /// How far a ray's line, widened by its error, may lie from the model of [`Windows`]
 /// (per axis, in support starts); blocks are widened by twice as much.
 const SLACK: f64 = 0.25;
 
+/// At most this many words of [`Windows`] bits a pixel, and in all.
+const WINDOW_WORDS: usize = 4;
+const WINDOWS_MAX: usize = 1 << 23;
+
 impl Windows {
-    /// The window of pixel (hi, vi), when its line `jl` follows the model.
+    /// The window of pixel (hi, vi) (its words), when its line `jl` follows the model.
     #[inline(always)]
-    fn of(&self, jl: &Jumps, hi: u32, vi: u32) -> Option<(u32, u32)> {
+    fn of(&self, jl: &Jumps, hi: u32, vi: u32) -> Option<[u64; WINDOW_WORDS]> {
         if hi >= self.size[0] || vi >= self.size[1] || jl.d != self.d {
             return None;
         }
@@ -197,9 +204,46 @@ impl Windows {
                 return None;
             }
         }
-        let [k0, k1] = self.k[(hi + self.size[0] * vi) as usize];
-        Some((k0, k1))
+        let (p, n) = (
+            (hi + self.size[0] * vi) as usize,
+            self.size[0] as usize * self.size[1] as usize,
+        );
+        let mut w = [0; WINDOW_WORDS];
+        for (i, x) in w.iter_mut().enumerate().take(self.wpp) {
+            *x = *self.bits.get(i * n + p)?;
+        }
+        Some(w)
     }
+
+    /// The stretches of samples in `ks` that a pixel's words `w` mark, in order.
+    #[inline(always)]
+    fn runs(&self, w: [u64; WINDOW_WORDS], ks: (u32, u32)) -> impl Iterator<Item = (u32, u32)> {
+        let c = self.c;
+        let end = ks.1.div_ceil(c).min(self.wpp as u32 * 64);
+        let mut b = ks.0 / c;
+        core::iter::from_fn(move || {
+            let s = next_bit(&w, b, true, end)?;
+            let e = next_bit(&w, s, false, end).unwrap_or(end);
+            b = e;
+            Some(((s * c).max(ks.0), (e * c).min(ks.1)))
+        })
+    }
+}
+
+/// The first bit of `w` from `from` (before `end`) that is `set`.
+#[inline(always)]
+fn next_bit(w: &[u64], from: u32, set: bool, end: u32) -> Option<u32> {
+    let mut i = from;
+    while i < end {
+        let wi = (i / 64) as usize;
+        let x = if set { w[wi] } else { !w[wi] } >> (i % 64);
+        if x != 0 {
+            let j = i + x.trailing_zeros();
+            return (j < end).then_some(j);
+        }
+        i = (wi as u32 + 1) * 64;
+    }
+    None
 }
 
 /// A walk along a ray's exact line ([`Jumps`]) through the fine blocks of an opacity
@@ -305,6 +349,15 @@ impl Walk {
     }
 }
 
+/// What the probe of a convolved sample may know besides its sums: the principal
+/// curvatures (used by curvature LUT axes only), and the LUT entry and opacity when the
+/// caller already has them (the same as the probe would find).
+#[derive(Clone, Copy, Default)]
+struct Known {
+    curv: [f64; 2],
+    hit: Option<(usize, f32)>,
+}
+
 /// Samples placed for the convolution, in ray order (how many are waiting is a local
 /// of the ray loop, so that it stays in a register).
 struct Batch<F, const N: usize> {
@@ -365,7 +418,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
-        let kend = if sp.once { 1 } else { sp.kmax + 1 };
+        let kend = self.kend();
         // A brick casts its stretch of the ray.
         let (w0, w1) = match &self.own {
             Some(own) => {
@@ -388,12 +441,22 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     // Outside its window a sample is outside or transparent, which only
                     // the count sees, and only whether it is zero: the window first, the
                     // rest only while nothing is counted.
-                    match g.windows().and_then(|w| w.of(&jl, hi, vi)) {
-                        Some((w0, w1)) => {
-                            let (w0, w1) = (ks.0.max(w0), ks.1.min(w1));
-                            if w0 < w1 {
-                                self.walk::<G, N, P>(&ray, g, &jl, (w0, w1), &mut st, false);
+                    match g.windows().and_then(|w| Some((w, w.of(&jl, hi, vi)?))) {
+                        Some((w, px)) => {
+                            let b = &mut Batch::<A::Frac, N> {
+                                n: [[0; 3]; N],
+                                f: [A::Frac::default(); N],
+                                k: [0; N],
+                            };
+                            let mut m = 0;
+                            for run in w.runs(px, ks) {
+                                if self.place_run::<G, N, P>(&ray, g, run, &mut st, b, &mut m) {
+                                    break;
+                                }
                             }
+                            // (None wait after early termination; some may when a
+                            // sample is past the far plane.)
+                            self.flush::<G, N>(&ray, &mut st, b, m);
                             if st.acc.count == 0 {
                                 self.walk::<G, N, P>(&ray, g, &jl, ks, &mut st, true);
                             }
@@ -405,13 +468,13 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             }
         }
         // With an exact span every sample of [k0, k1) is inside and before the far plane.
-        let (k0, k1, exact) = if N > 1 && !everywhere {
+        let ((k0, k1, exact), whole_line) = if N > 1 && !everywhere {
             match self.a.span(&ray, kend) {
-                Some(s) => s,
-                None => return self.finish(&mut st, out),
+                (Some(s), l) => (s, l),
+                (None, _) => return self.finish(&mut st, out),
             }
         } else {
-            (0, kend, false)
+            ((0, kend, false), None)
         };
         let (k0, k1) = (k0.max(w0), k1.min(w1));
         if k0 >= k1 {
@@ -425,7 +488,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             _ => (None, None),
         };
         let line = match skip.or(below) {
-            Some(_) if !tracing => self.a.line(&ray, k1).map(|l| self.jumps(&l, k1)),
+            // (The line over all samples holds for those before k1.)
+            Some(_) if !tracing => whole_line
+                .or_else(|| self.a.line(&ray, k1))
+                .map(|l| self.jumps(&l, k1)),
             _ => None,
         };
         // Blocks of P samples to add to the batch whole when all are inside and before
@@ -613,6 +679,17 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         self.finish(&mut st, out);
     }
 
+    /// One past the last sample a ray casts (sample 0 alone when the spec samples once:
+    /// `sample_once`, or near and far planes that meet).
+    #[inline(always)]
+    fn kend(&self) -> u32 {
+        if self.spec.once {
+            1
+        } else {
+            self.spec.kmax + 1
+        }
+    }
+
     /// Whether this ray looks at the `max` bounds (see [`March::idle`]).
     #[inline(always)]
     fn look(&self) -> bool {
@@ -729,11 +806,15 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         if let (true, Some(lut)) = (G && sp.value_opacity && st.trace.is_none(), sp.lut) {
             self.a.convolve::<false, N>(&b.n, &b.f, m, &mut res);
             // The samples that are not transparent, convolved again with the gradient.
-            let mut keep = [0usize; N];
+            // (Their LUT entries and opacities are kept for the probe.)
+            let (mut keep, mut hit) = ([0usize; N], [(0usize, 0.0f32); N]);
             let mut nk = 0;
             for i in 0..m {
-                if self.lut_alpha(ray, lut.index(res[i][0] as f64), &mut st.memo) != 0.0 {
+                let e = lut.index(res[i][0] as f64);
+                let a = self.lut_alpha(ray, e, &mut st.memo);
+                if a != 0.0 {
                     (b.n[nk], b.f[nk], b.k[nk], keep[nk]) = (b.n[i], b.f[i], b.k[i], i);
+                    hit[nk] = (e, a);
                     nk += 1;
                 }
             }
@@ -743,7 +824,16 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             let mut j = 0;
             for i in 0..m {
                 if j < nk && keep[j] == i {
-                    if self.take::<G>(ray, st, b.k[j], res[j], [0.0; 2]) {
+                    if self.take::<G>(
+                        ray,
+                        st,
+                        b.k[j],
+                        res[j],
+                        Known {
+                            curv: [0.0; 2],
+                            hit: Some(hit[j]),
+                        },
+                    ) {
                         return true;
                     }
                     j += 1;
@@ -778,7 +868,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     .a
                     .second(b.n[i], b.f[i])
                     .curvatures(sp.params.curv_min_grad);
-                if self.take::<G>(ray, st, b.k[i], res[i], curv) {
+                if self.take::<G>(ray, st, b.k[i], res[i], Known { curv, hit: None }) {
                     return true;
                 }
             }
@@ -821,7 +911,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 return false;
             }
         }
-        (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i], [0.0; 2]))
+        (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i], Known::default()))
     }
 
     /// Blends the one-channel probe's values `xs` of samples `ks` (max/min/sum/mean...,
@@ -841,8 +931,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         }
     }
 
-    /// Probes and blends one convolved sample k (sums `r`, principal curvatures `curv`
-    /// when the LUT needs them); true when the ray ends.
+    /// Probes and blends one convolved sample k (sums `r`, and what is `known`); true
+    /// when the ray ends.
     #[inline(always)]
     fn take<const G: bool>(
         &self,
@@ -850,7 +940,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         st: &mut State<'_>,
         k: u32,
         r: [f32; 4],
-        curv: [f64; 2],
+        known: Known,
     ) -> bool {
         let gw = if G {
             self.a.grad_world([r[1], r[2], r[3]])
@@ -862,7 +952,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             ray,
             k,
             [r[0], gw[0], gw[1], gw[2]],
-            curv,
+            known,
             &mut st.memo,
             &mut pr,
         );
@@ -931,15 +1021,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     }
 
     /// The probes counted only inside (v, gv, gm, rgba, rgbalit) at sample k for value
-    /// and world gradient `vg` and principal curvatures `curv` (used by curvature LUT
-    /// axes only); whether the sample is blended.
+    /// and world gradient `vg` and what is `known`; whether the sample is blended.
     #[inline(always)]
     fn probe_inside(
         &self,
         ray: &A::Ray,
         k: u32,
         vg: [f32; 4],
-        curv: [f64; 2],
+        Known { curv, hit }: Known,
         memo: &mut Memo,
         out: &mut [f32; MAX_CHANNELS],
     ) -> bool {
@@ -952,7 +1041,9 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             Probe::GradMag => out[0] = gmag(gw),
             Probe::Rgba | Probe::RgbaLit => {
                 let Some(lut) = sp.lut else { return false };
-                let i = if sp.lut_by_value {
+                let i = if let Some((i, _)) = hit {
+                    i
+                } else if sp.lut_by_value {
                     lut.index(v as f64)
                 } else {
                     let gm = f64::from(gmag(gw));
@@ -961,11 +1052,13 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     lut.entry([q(a0), q(a1)])
                 };
                 let e = lut.entries()[i];
-                let a = match sp.levoy {
-                    None => self.lut_alpha(ray, i, memo),
-                    Some(lev) => self
-                        .a
-                        .correct(ray, e[3] * lev.opacity(v, gmag(gw)), None, memo),
+                let a = match (hit, sp.levoy) {
+                    (Some((_, a)), _) => a,
+                    (None, None) => self.lut_alpha(ray, i, memo),
+                    (None, Some(lev)) => {
+                        self.a
+                            .correct(ray, e[3] * lev.opacity(v, gmag(gw)), None, memo)
+                    }
                 };
                 let mut rgb = [e[0], e[1], e[2]];
                 // A transparent sample is not lit (it adds nothing under `over`).
@@ -1215,7 +1308,7 @@ impl<A: Arith> March<'_, '_, A> {
         use crate::math::{ceil, floor};
         let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
         let sp = self.spec;
-        let kend = if sp.once { 1 } else { sp.kmax + 1 };
+        let kend = self.kend();
         let jumps = |hi, vi| Some(self.jumps(&self.a.line(&self.a.ray(hi, vi), kend)?, kend));
         let (o, x, y) = (jumps(0, 0)?, jumps(1, 0)?, jumps(0, 1)?);
         if x.d != o.d || y.d != o.d {
@@ -1229,41 +1322,69 @@ impl<A: Arith> March<'_, '_, A> {
             return None;
         }
         let [w, h] = sp.size();
-        let mut k = Vec::new();
-        k.try_reserve_exact(w as usize * h as usize).ok()?;
-        k.resize(w as usize * h as usize, [u32::MAX, 0]);
-        let wide = 2.0 * SLACK;
-        for b in g.full_blocks() {
-            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for c in 0..8 {
-                let p: [f64; 3] = core::array::from_fn(|a| {
-                    let f = if (c >> a) & 1 == 1 {
-                        FINE as f64 + wide
-                    } else {
-                        -wide
-                    };
-                    b[a] as f64 + f - o.h[a]
-                });
-                for r in 0..3 {
-                    let t = dot(inv[r], p);
-                    (lo[r], hi[r]) = (lo[r].min(t), hi[r].max(t));
+        let n = w as usize * h as usize;
+        let wpp = (WINDOWS_MAX / n.max(1)).min(WINDOW_WORDS);
+        if wpp == 0 {
+            return None;
+        }
+        // Samples a bit, then the words a pixel needs.
+        let c = kend.div_ceil(64 * wpp as u32);
+        let wpp = kend.div_ceil(c).div_ceil(64) as usize;
+        let mut bits = Vec::new();
+        bits.try_reserve_exact(n * wpp).ok()?;
+        bits.resize(n * wpp, 0u64);
+        // Every block has the same corners about its first support start: their
+        // (hi, vi, k) ranges once, widened by 2 × SLACK.
+        let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for c in 0..8 {
+            let f: [f64; 3] = core::array::from_fn(|a| {
+                if (c >> a) & 1 == 1 {
+                    FINE as f64 + 2.0 * SLACK
+                } else {
+                    -2.0 * SLACK
                 }
+            });
+            for r in 0..3 {
+                let t = dot(inv[r], f);
+                (clo[r], chi[r]) = (clo[r].min(t), chi[r].max(t));
             }
-            if !lo.iter().chain(&hi).all(|t| t.is_finite()) {
+        }
+        // Whole pixels and samples in a range (far wider than this f64 arithmetic's
+        // rounding, far narrower than the SLACK the blocks are widened by).
+        let first = |t: f64| ceil(t - 1e-6).max(0.0);
+        let last = |t: f64| floor(t + 1e-6);
+        for b in g.full_blocks() {
+            let p: [f64; 3] = core::array::from_fn(|a| b[a] as f64 - o.h[a]);
+            let t: [f64; 3] = core::array::from_fn(|r| dot(inv[r], p));
+            if !t.iter().all(|t| t.is_finite()) {
                 return None;
             }
-            // Whole pixels and samples, one more on each side for rounding.
-            let first = |t: f64| (floor(t) - 1.0).max(0.0);
-            let (h0, h1) = (first(lo[0]), (ceil(hi[0]) + 1.0).min(w as f64 - 1.0));
-            let (v0, v1) = (first(lo[1]), (ceil(hi[1]) + 1.0).min(h as f64 - 1.0));
-            let (k0, k1) = (first(lo[2]), (ceil(hi[2]) + 2.0).min(kend as f64));
-            if h0 > h1 || v0 > v1 || k0 >= k1 {
+            let (h0, h1) = (
+                first(t[0] + clo[0]),
+                last(t[0] + chi[0]).min(w as f64 - 1.0),
+            );
+            let (v0, v1) = (
+                first(t[1] + clo[1]),
+                last(t[1] + chi[1]).min(h as f64 - 1.0),
+            );
+            let (k0, k1) = (
+                first(t[2] + clo[2]),
+                last(t[2] + chi[2]).min(kend as f64 - 1.0),
+            );
+            if h0 > h1 || v0 > v1 || k0 > k1 {
                 continue;
             }
-            for vi in v0 as usize..=v1 as usize {
-                for px in &mut k[vi * w as usize..][h0 as usize..=h1 as usize] {
-                    px[0] = px[0].min(k0 as u32);
-                    px[1] = px[1].max(k1 as u32);
+            // The block's bits, word by word (each word a plane of pixels).
+            let (b0, b1) = (k0 as u32 / c, k1 as u32 / c);
+            for i in (b0 / 64) as usize..=(b1 / 64) as usize {
+                let (lo, hi) = (i as u32 * 64, i as u32 * 64 + 63);
+                let (s, e) = (b0.max(lo) - lo, b1.min(hi) - lo);
+                let m = (u64::MAX >> (63 - e)) & (u64::MAX << s);
+                for vi in v0 as usize..=v1 as usize {
+                    let row = i * n + vi * w as usize;
+                    for x in &mut bits[row + h0 as usize..=row + h1 as usize] {
+                        *x |= m;
+                    }
                 }
             }
         }
@@ -1273,7 +1394,9 @@ impl<A: Arith> March<'_, '_, A> {
             ph,
             pv,
             d,
-            k,
+            c,
+            wpp,
+            bits,
         })
     }
 }
@@ -1292,16 +1415,17 @@ impl<A: Arith> March<'_, '_, A> {
         let Some(l) = self.a.line(&ray, kend) else {
             return 0;
         };
-        let Some((k0, k1)) = w.of(&self.jumps(&l, kend), hi, vi) else {
+        let Some(px) = w.of(&self.jumps(&l, kend), hi, vi) else {
             return 0;
         };
+        let runs: Vec<(u32, u32)> = w.runs(px, (0, kend)).collect();
         let mut full = 0;
         for k in 0..kend {
             if let Some((n, _)) = self.a.place(&ray, k) {
                 if g.flags_at(n) & FINE_EMPTY == 0 {
                     assert!(
-                        (k0..k1).contains(&k),
-                        "ray ({hi}, {vi}) sample {k} at {n:?} not in {k0}..{k1}"
+                        runs.iter().any(|r| (r.0..r.1).contains(&k)),
+                        "ray ({hi}, {vi}) sample {k} at {n:?} not in {runs:?}"
                     );
                     full += 1;
                 }

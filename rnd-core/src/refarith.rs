@@ -27,7 +27,7 @@
 //!   (L + V)·(1/|L + V|) with V = −s·(1/|s|) for the world step s; `over` keeps the
 //!   transparency T: C += T·α·rgb, T ·= 1 − α, and the pixel is C/(1 − T), 1 − T.
 //!
-//! [`inside_span`] bounds the samples of a ray that can be inside the volume; the ray
+//! `inside_span` bounds the samples of a ray that can be inside the volume; the ray
 //! loop places sixteen samples side by side and [`Lanes`] convolves them, each lane doing exactly the
 //! one-sample operations. The running sums still cost about 9 multiplies and 4 adds per
 //! support sample (the f64 engine, `-ref false`, sums separably and is quicker).
@@ -391,14 +391,13 @@ pub const MAX_AXIS: usize = (1 << 24) - 1;
 /// odd supports. With unit roundoff u = 2^-24 each result is off the exact value of the
 /// same formula by at most about 11 u times the sum of the magnitudes of its terms; 16 u
 /// of that sum (plus 1) is used, and one more sample at each end.
-pub fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
-    vi: &ViewIndex,
-    ray: &RefRay,
+pub(crate) fn inside_span<V: Voxel, K: Kernel<S>, const S: usize>(
+    line: Option<&crate::arith::Line>,
     vol: &Volume<'_, V>,
     kmax: u32,
 ) -> Option<(u32, u32)> {
     let kmax_f = kmax as f64;
-    let Some(line) = vi.line(ray, kmax) else {
+    let Some(line) = line else {
         return Some((0, kmax));
     };
     let half = if S.is_multiple_of(2) { 0.0 } else { 0.5 };
@@ -901,7 +900,7 @@ mod lane_tests {
             for vi in 0..7 {
                 for hi in 0..9 {
                     let ray = cam.ray(hi, vi, sep, 1.0);
-                    let span = inside_span::<f32, K, S>(&vix, &ray, &vol, kmax);
+                    let span = inside_span::<f32, K, S>(vix.line(&ray, kmax).as_ref(), &vol, kmax);
                     let mut inside = alloc::vec::Vec::new();
                     for k in 0..=kmax {
                         // The reference arithmetic's own sample position and inside rule.
