@@ -283,15 +283,13 @@ impl Walk {
     /// support starts held.
     #[inline(always)]
     fn axis(&mut self, jl: &Jumps, a: usize, k: u32, k1: u32) -> bool {
-        let x = jl.h[a] + k as f64 * jl.d[a];
-        let (x0, x1) = (x - jl.e[a], x + jl.e[a]);
-        if !(x0 >= 0.0 && x1 < jl.end[a]) {
+        // (The block of the count's lowest value; `sure_to` checks that the whole
+        // widened count lies in it and before the end.)
+        let x0 = jl.h[a] + k as f64 * jl.d[a] - jl.e[a];
+        if !(x0 >= 0.0 && x0 < jl.end[a]) {
             return false;
         }
         let blk = x0 as i64 as usize / FINE;
-        if x1 as i64 as usize / FINE != blk {
-            return false;
-        }
         self.blk[a] = blk;
         self.face[a] = (blk * FINE) as f64;
         self.sure_to(jl, a, k, k1)
