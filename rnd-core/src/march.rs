@@ -364,6 +364,18 @@ struct Batch<F, const N: usize> {
     k: [u32; N],
 }
 
+impl<F: Default + Copy, const N: usize> Batch<F, N> {
+    /// An empty batch.
+    #[inline(always)]
+    fn new() -> Self {
+        Batch {
+            n: [[0; 3]; N],
+            f: [F::default(); N],
+            k: [0; N],
+        }
+    }
+}
+
 impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels, or the
     /// partial blend of the brick's stretch).
@@ -441,11 +453,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     // rest only while nothing is counted.
                     match g.windows().and_then(|w| Some((w, w.of(&jl, hi, vi)?))) {
                         Some((w, px)) => {
-                            let b = &mut Batch::<A::Frac, N> {
-                                n: [[0; 3]; N],
-                                f: [A::Frac::default(); N],
-                                k: [0; N],
-                            };
+                            let b = &mut Batch::<A::Frac, N>::new();
                             let mut m = 0;
                             for run in w.runs(px, ks) {
                                 if self.place_run::<G, N, P>(&ray, g, run, &mut st, b, &mut m) {
@@ -505,11 +513,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         if below.is_some() {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
-        let mut b = Batch::<A::Frac, N> {
-            n: [[0; 3]; N],
-            f: [A::Frac::default(); N],
-            k: [0; N],
-        };
+        let mut b = Batch::<A::Frac, N>::new();
         if everywhere {
             for kk in k0..k1 {
                 if (kk > 0 && self.a.past(&ray, kk)) || self.everywhere(&ray, kk, &mut st) {
@@ -1137,11 +1141,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         st: &mut State<'_>,
         until_counted: bool,
     ) {
-        let b = &mut Batch::<A::Frac, N> {
-            n: [[0; 3]; N],
-            f: [A::Frac::default(); N],
-            k: [0; N],
-        };
+        let b = &mut Batch::<A::Frac, N>::new();
         let mut m = 0usize;
         let mut w = Walk::default();
         // Samples [p0, k) wait to be placed.
