@@ -629,8 +629,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     }
                 }
                 if let Some(sk) = skip {
-                    let flags = sk.flags_at(n);
-                    if flags & FINE_EMPTY != 0 {
+                    if sk.empty_at(n) {
                         // Inside with opacity 0: blending changes only the count (the
                         // walk takes these rays when they have a line).
                         if tracing {
@@ -1176,7 +1175,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     }
 
     /// Places samples `from .. to`, `P` at a time, and takes them in order: a sample
-    /// outside counts for nothing, one in an empty fine block is transparent, the
+    /// outside counts for nothing, one the grid marks empty is transparent, the
     /// others join the batch (`m` waiting); true when the ray ends (early termination,
     /// or a sample past the far plane: the samples waiting are then still to go).
     #[inline(always)]
@@ -1201,7 +1200,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 let Some((n, f)) = A::block_at(&pb, i) else {
                     continue;
                 };
-                if sk.flags_at(n) & FINE_EMPTY != 0 {
+                if sk.empty_at(n) {
                     st.acc.add_transparent(1);
                     continue;
                 }

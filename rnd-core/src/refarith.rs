@@ -594,6 +594,12 @@ impl<const S: usize> Lanes<S> {
 /// where `libm::powf` differs on about 10%.
 #[inline]
 pub fn powf(x: f32, y: f32) -> f32 {
+    if x == 0.0 && y > 0.0 {
+        // As the library's pow (C99 F.9.4.4): ±0 to an odd whole power is itself, to any
+        // other positive power +0 (specular powers of back-facing normals, often).
+        let odd = y < 16_777_216.0 && y == math::floorf(y) && (y as u32) % 2 == 1;
+        return if odd { x } else { 0.0 };
+    }
     match powf_whole(x, y) {
         Some(r) => r,
         None => math::pow(x as f64, y as f64) as f32,
@@ -842,6 +848,15 @@ mod lane_tests {
         for (x, y) in [
             (1.0f32, 7.0f32),
             (0.0, 3.0),
+            (-0.0, 3.0),
+            (-0.0, 150.0),
+            (-0.0, 0.5),
+            (0.0, 150.0),
+            (-0.0, 16_777_215.0),
+            (-0.0, 3e9),
+            (0.0, 0.0),
+            (-0.0, -3.0),
+            (-0.0, -2.0),
             (0.5, 0.5),
             (1e-45, 2.0),
             (0.9, 70_000.0),
