@@ -623,6 +623,7 @@ impl<'l> SkipPlan<'l> {
 /// `sizes` voxels `data` reconstructed with a kernel of support `s`: for each support
 /// start in the block whose whole support is inside, `zero` of the least and greatest
 /// voxel the support reads (a NaN voxel: −∞ and +∞), found separably along x, y, z.
+/// None below [`STARTS_MIN`].
 fn start_bits<V: Voxel>(
     data: &[V],
     sizes: [usize; 3],
@@ -630,9 +631,8 @@ fn start_bits<V: Voxel>(
     fb: [usize; 3],
     zero: &impl Fn(f32, f32) -> bool,
 ) -> u64 {
+    const _: () = assert!(STARTS_MIN == 3);
     match s {
-        1 => starts_of::<V, 1>(data, sizes, fb, zero),
-        2 => starts_of::<V, 2>(data, sizes, fb, zero),
         3 => starts_of::<V, 3>(data, sizes, fb, zero),
         4 => starts_of::<V, 4>(data, sizes, fb, zero),
         6 => starts_of::<V, 6>(data, sizes, fb, zero),
@@ -725,8 +725,14 @@ impl SkipGrid {
     /// `lo` (all three axes inside the volume).
     #[inline(always)]
     pub fn flags_at(&self, lo: [i64; 3]) -> u8 {
-        let b = [lo[0] as usize / F, lo[1] as usize / F, lo[2] as usize / F];
-        self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
+        self.fine[self.fine_index(lo)]
+    }
+
+    /// The index in the fine grids of the block of support start `lo`.
+    #[inline(always)]
+    fn fine_index(&self, lo: [i64; 3]) -> usize {
+        let b = lo.map(|x| x as usize / F);
+        b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])
     }
 
     /// The flags of fine block `b` (block numbers per axis, inside the grid).
@@ -740,10 +746,11 @@ impl SkipGrid {
     /// is empty, or the voxels this convolution reads are enough to tell.
     #[inline(always)]
     pub fn empty_at(&self, lo: [i64; 3]) -> bool {
-        let [x, y, z] = lo.map(|x| x as usize);
-        let b = x / F + self.nf[0] * (y / F + self.nf[1] * (z / F));
-        let bit = x % F + F * (y % F + F * (z % F));
-        self.starts.get(b).is_some_and(|w| w >> bit & 1 != 0)
+        let [x, y, z] = lo.map(|x| x as usize % F);
+        let bit = x + F * (y + F * z);
+        self.starts
+            .get(self.fine_index(lo))
+            .is_some_and(|w| w >> bit & 1 != 0)
     }
 
     /// True when every convolution whose support starts in the coarse block of `lo`
@@ -789,8 +796,7 @@ impl SkipGrid {
     /// at `lo` (all three axes inside the volume; the `max` kinds).
     #[inline(always)]
     pub fn bound_at(&self, lo: [i64; 3]) -> f32 {
-        let f = lo.map(|x| x as usize / F);
-        self.hi[f[0] + self.nf[0] * (f[1] + self.nf[1] * f[2])]
+        self.hi[self.fine_index(lo)]
     }
 
     /// The upper bound of [`SkipGrid::bound_at`] over every support start in the box
