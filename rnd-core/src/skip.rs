@@ -10,8 +10,9 @@
 //!   starts per axis) decide samples, and the ray's walk through them whole stretches;
 //!   coarse blocks (8 per axis, every fine block inside empty) speed up the build.
 //!   Inside a fine block that is not empty, one bit per support start says whether the
-//!   voxels that start's convolution reads, alone, make it transparent (kernels of
-//!   support 3 or more, where a convolution costs more than the bit).
+//!   voxels that start's convolution reads, alone, make it transparent (tested
+//!   against voxel bounds found once per block from the LUT's runs of transparent
+//!   values).
 //! - `max` of the value or the gradient magnitude: an upper bound on the quantity per
 //!   block, with a proven margin for f32 rounding, so a sample whose block's bound is
 //!   at most the ray's running maximum is counted without convolving it (the maximum
@@ -34,11 +35,10 @@ const F: usize = 4;
 pub(crate) const FINE: usize = F;
 const _: () = assert!(B.is_multiple_of(F));
 /// Least kernel support whose fine blocks get a bit per support start
-/// ([`SkipGrid::empty_at`]): the bits cost ~150 instructions a start to build, so they
-/// pay where a convolution is dear. Measured (callgrind, CT lit `over`, 256²): bspln3
-/// 561 M → 475 M instructions (build +157 M, render −244 M); tent 301 M → 334 M
-/// (build +80 M, render −47 M).
-const STARTS_MIN: usize = 3;
+/// ([`SkipGrid::empty_at`]). Measured (callgrind, CT lit `over`, 256², tests profile):
+/// tent 301 M → 293 M instructions (build +39 M, render −47 M); bspln3 617 M → 546 M
+/// against bits tested entry by entry.
+const STARTS_MIN: usize = 2;
 /// Fine blocks per coarse block along each axis.
 const R: usize = B / F;
 
@@ -193,9 +193,115 @@ enum Test<'l> {
         nz: Vec<usize>,
         wneg: f64,
         gm: Option<Linear>,
+        runs: Vec<(f64, f64)>,
     },
     /// An upper bound.
     Bound(Linear),
+}
+
+/// The maximal runs of first-axis entries of `lut` that are transparent in every row of
+/// the second axis (`nz` as in [`Test::Opacity`]), each as the values `[a, b)` whose
+/// [`crate::classify::LutAxis::index`] falls in it (−∞ and +∞ at the axis's ends);
+/// none unless the first axis is the value.
+fn value_runs(lut: &Lut, nz: &[usize]) -> Vec<(f64, f64)> {
+    let a = &lut.axes()[0];
+    if a.quantity != Quantity::Value {
+        return Vec::new();
+    }
+    // Entries before i of every row of the second axis.
+    let all = &nz[nz.len() - (a.len + 1)..];
+    let clear = |i: usize| all[i + 1] == all[i];
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < a.len {
+        if !clear(i) {
+            i += 1;
+            continue;
+        }
+        let first = i;
+        while i < a.len && clear(i) {
+            i += 1;
+        }
+        let lo = if first == 0 {
+            f64::NEG_INFINITY
+        } else {
+            first_at(a, first)
+        };
+        let hi = if i == a.len {
+            f64::INFINITY
+        } else {
+            first_at(a, i)
+        };
+        runs.push((lo, hi));
+    }
+    runs
+}
+
+/// The least value whose entry along `a` is `i` or later (`1 ≤ i < a.len`): bisection
+/// over the ordered f64s of [min, max], as `index` is monotone there.
+fn first_at(a: &crate::classify::LutAxis, i: usize) -> f64 {
+    // f64s in order as integers (−0 and +0 alike).
+    let key = |x: f64| {
+        let b = x.to_bits() as i64;
+        i128::from(if b < 0 { i64::MIN - b } else { b })
+    };
+    let value = |k: i128| {
+        let k = k as i64;
+        f64::from_bits(if k < 0 {
+            (i64::MIN - k) as u64
+        } else {
+            k as u64
+        })
+    };
+    // index(min) = 0 < i ≤ len − 1 = index(max).
+    let (mut lo, mut hi) = (key(a.min), key(a.max));
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if a.index(value(mid)) >= i {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    value(hi)
+}
+
+/// Tests of one fine block's support starts, from the `runs` of transparent values
+/// ([`value_runs`]), for a kernel whose negative lobes widen a voxel range by `wneg`
+/// times its width ([`Test::Opacity`]) and a block whose starts read voxels in `[m, mx]`:
+/// up to two pairs `(l0, h0)` such that a start whose voxels lie in `[l, h]` with
+/// `l ≥ l0` and `h ≤ h0` reaches only values of one run. A start's reachable values
+/// are `[l − wneg·(h − l) − e, h + wneg·(h − l) + e]` with the rounding margin
+/// `e = 1e-5·(|l| + |h| + 1)` of [`SkipPlan::fill_slabs`]; inside the block both widths
+/// are at most `d = wneg·(mx − m) + 1e-5·(2·max(|m|, |mx|) + 1)`, so `l − d ≥ a` and
+/// `h + d < b` put them in the run `[a, b)` (the f64 rounding of these sums is far
+/// below the margin). Runs no start of the block can meet are left out; unused pairs
+/// are (+∞, −∞), which nothing meets. None for a block whose range is not finite (a
+/// NaN voxel).
+fn start_tests(runs: &[(f64, f64)], wneg: f64, m: f32, mx: f32) -> Option<[(f32, f32); 2]> {
+    if !(m.is_finite() && mx.is_finite() && m <= mx) {
+        return None;
+    }
+    let (m, mx) = (f64::from(m), f64::from(mx));
+    let d = wneg * (mx - m) + 1e-5 * (2.0 * m.abs().max(mx.abs()) + 1.0);
+    let mut tests = [(f32::INFINITY, f32::NEG_INFINITY); 2];
+    let mut n = 0;
+    for &(a, b) in runs {
+        // The least f32 l with l − d ≥ a, the greatest h with h + d < b.
+        let mut l0 = (a + d) as f32;
+        if f64::from(l0) - d < a {
+            l0 = l0.next_up();
+        }
+        let mut h0 = (b - d) as f32;
+        if f64::from(h0) + d >= b {
+            h0 = h0.next_down();
+        }
+        if l0 <= h0 && f64::from(l0) <= mx && f64::from(h0) >= m && n < tests.len() {
+            tests[n] = (l0, h0);
+            n += 1;
+        }
+    }
+    (n > 0).then_some(tests)
 }
 
 /// The grids a [`SkipPlan`] fills: fine flags and coarse emptiness ([`SkipKind::Opacity`])
@@ -248,11 +354,18 @@ impl<'l> SkipPlan<'l> {
             .iter()
             .any(|a| a.quantity == Quantity::GradMag)
             .then(|| Linear::new(SkipKind::MaxGradMag, kernel, vol.wtoi()));
+        let runs = value_runs(lut, &nz);
         Self::with(
             vol,
             kernel,
             SkipKind::Opacity,
-            Test::Opacity { lut, nz, wneg, gm },
+            Test::Opacity {
+                lut,
+                nz,
+                wneg,
+                gm,
+                runs,
+            },
         )
     }
 
@@ -465,23 +578,11 @@ impl<'l> SkipPlan<'l> {
             at(i1 + 1, j1 + 1) + at(i0, j0) == at(i0, j1 + 1) + at(i1 + 1, j0)
         };
         // The support starts' test, where the first axis is the value: by the value
-        // alone (whatever the second axis's entry), so cheaper and no less sound.
-        let by_value = match &self.test {
-            Test::Opacity { lut, .. } => {
-                s >= STARTS_MIN && lut.axes()[0].quantity == Quantity::Value
-            }
-            Test::Bound(_) => false,
-        };
-        let value_zero = |m: f32, mx: f32| -> bool {
-            let (Test::Opacity { lut, nz, .. }, Some((lo, hi))) = (&self.test, values(m, mx))
-            else {
-                return false;
-            };
-            let a = &lut.axes()[0];
-            let (i0, i1) = (a.index(lo), a.index(hi));
-            // Entries before i of every row of the second axis.
-            let all = nz.len() - (a.len + 1);
-            nz[all + i1 + 1] == nz[all + i0]
+        // alone (whatever the second axis's entry), so cheaper and no less sound, and
+        // by voxel bounds per block ([`start_tests`]).
+        let (runs, wneg) = match &self.test {
+            Test::Opacity { runs, wneg, .. } if s >= STARTS_MIN => (&runs[..], *wneg),
+            _ => (&[][..], 0.0),
         };
         // Min and max over each fine block's support range (the block's bases plus
         // S − 1 more voxels per axis), separably and one fine slab at a time: along z
@@ -570,10 +671,9 @@ impl<'l> SkipPlan<'l> {
                             // A block that is not empty may still hold transparent starts.
                             part.starts[g] = if e {
                                 !0
-                            } else if by_value {
-                                start_bits(data, sizes, s, fb, &value_zero)
                             } else {
-                                0
+                                start_tests(runs, wneg, fmin[l], fmax[l])
+                                    .map_or(0, |t| start_bits(data, sizes, s, fb, &t))
                             };
                             all & e
                         });
@@ -620,22 +720,23 @@ impl<'l> SkipPlan<'l> {
 }
 
 /// [`SkipGrid::starts`] of fine block `fb` (block numbers per axis) of a volume of
-/// `sizes` voxels `data` reconstructed with a kernel of support `s`: for each support
-/// start in the block whose whole support is inside, `zero` of the least and greatest
-/// voxel the support reads (a NaN voxel: −∞ and +∞), found separably along x, y, z.
-/// None below [`STARTS_MIN`].
+/// `sizes` voxels `data` reconstructed with a kernel of support `s`: set for each
+/// support start in the block whose whole support is inside and the least and greatest
+/// voxel it reads, `[l, h]` (found separably along x, y, z), meet one of the `tests`
+/// ([`start_tests`]). None below [`STARTS_MIN`].
 fn start_bits<V: Voxel>(
     data: &[V],
     sizes: [usize; 3],
     s: usize,
     fb: [usize; 3],
-    zero: &impl Fn(f32, f32) -> bool,
+    tests: &[(f32, f32); 2],
 ) -> u64 {
-    const _: () = assert!(STARTS_MIN == 3);
+    const _: () = assert!(STARTS_MIN == 2);
     match s {
-        3 => starts_of::<V, 3>(data, sizes, fb, zero),
-        4 => starts_of::<V, 4>(data, sizes, fb, zero),
-        6 => starts_of::<V, 6>(data, sizes, fb, zero),
+        2 => starts_of::<V, 2>(data, sizes, fb, tests),
+        3 => starts_of::<V, 3>(data, sizes, fb, tests),
+        4 => starts_of::<V, 4>(data, sizes, fb, tests),
+        6 => starts_of::<V, 6>(data, sizes, fb, tests),
         _ => 0,
     }
 }
@@ -646,7 +747,7 @@ fn starts_of<V: Voxel, const S: usize>(
     data: &[V],
     sizes: [usize; 3],
     fb: [usize; 3],
-    zero: &impl Fn(f32, f32) -> bool,
+    tests: &[(f32, f32); 2],
 ) -> u64 {
     /// A fine block's voxels per axis for the widest support (6).
     const W: usize = F + 5;
@@ -670,10 +771,10 @@ fn starts_of<V: Voxel, const S: usize>(
             let Some(row) = data.get(at..at + w[0]) else {
                 return 0;
             };
+            // (No NaN: the block's voxel range is finite.)
             let (mut vl, mut vh) = ([inf; W], [ninf; W]);
             for (t, x) in row.iter().enumerate() {
-                let x = x.to_f32();
-                (vl[t], vh[t]) = if x.is_nan() { (ninf, inf) } else { (x, x) };
+                (vl[t], vh[t]) = (x.to_f32(), x.to_f32());
             }
             for i in 0..F {
                 let (mut l, mut h) = (vl[i], vh[i]);
@@ -705,9 +806,9 @@ fn starts_of<V: Voxel, const S: usize>(
                 for t in 1..S {
                     (l, h) = (lo(l, yl[k + t][j * F + i]), hi(h, yh[k + t][j * F + i]));
                 }
-                if zero(l, h) {
-                    bits |= 1 << (i + F * (j + F * k));
-                }
+                let [(l0, h0), (l1, h1)] = *tests;
+                let hit = (l >= l0) & (h <= h0) | (l >= l1) & (h <= h1);
+                bits |= u64::from(hit) << (i + F * (j + F * k));
             }
         }
     }
@@ -1236,6 +1337,86 @@ mod tests {
     }
 
     proptest! {
+        /// The runs of transparent values hold exactly the values whose entry is
+        /// transparent in every row (also at and next to each run's ends), for 1-D LUTs
+        /// and 2-D ones; a block's start tests pass only starts whose every reachable
+        /// value (by the margins of `SkipPlan::fill_slabs`) is in such an entry, and
+        /// pass the voxel ranges well inside a run.
+        #[test]
+        fn value_runs_are_the_entries_test(
+            min in -1e3f64..1e3,
+            width in 1e-3f64..1e4,
+            rows in 1usize..3,
+            wneg in prop::sample::select(&[0.0f64, 0.0, 0.3][..]),
+            alpha in prop::collection::vec(prop::sample::select(&[0.0f32, 0.0, 0.5][..]), 1..80),
+            pts in prop::collection::vec((0.0f64..1.0, 0.0f64..0.2), 50),
+        ) {
+            use crate::classify::{LutAxis, Quantity};
+            use crate::txf::Lut;
+            let n0 = alpha.len() / rows;
+            prop_assume!(n0 >= 1);
+            let e: Vec<[f32; 4]> = (0..n0 * rows).map(|i| [1.0, 1.0, 1.0, alpha[i]]).collect();
+            let max = min + width;
+            let mut axes = alloc::vec![LutAxis::new(Quantity::Value, min, max, n0)];
+            if rows > 1 {
+                axes.push(LutAxis::new(Quantity::GradMag, 0.0, 1.0, rows));
+            }
+            let lut = Lut::with_axes(&axes, e.clone()).unwrap();
+            let a = lut.axes()[0];
+            let clear = |i: usize| (0..rows).all(|j| e[i + n0 * j][3] == 0.0);
+            let mut nz = alloc::vec![0usize; (n0 + 1) * (rows + 1)];
+            for j in 0..rows {
+                for i in 0..n0 {
+                    let here = usize::from(e[i + n0 * j][3] != 0.0);
+                    nz[(i + 1) + (n0 + 1) * (j + 1)] =
+                        here + nz[i + (n0 + 1) * (j + 1)] + nz[(i + 1) + (n0 + 1) * j] - nz[i + (n0 + 1) * j];
+                }
+            }
+            let runs = super::value_runs(&lut, &nz);
+            // Points: spread over the domain and beyond, and each run's ends.
+            let mut xs: Vec<f64> = pts.iter().map(|&(u, _)| min - width + 3.0 * width * u).collect();
+            for &(lo, hi) in &runs {
+                for t in [lo, hi] {
+                    if t.is_finite() {
+                        xs.extend([t, t.next_down(), t.next_up()]);
+                    }
+                }
+            }
+            for &x in &xs {
+                let got = runs.iter().any(|&(lo, hi)| lo <= x && x < hi);
+                prop_assert_eq!(got, clear(a.index(x)), "{} {:?}", x, runs);
+            }
+            // Start tests of blocks spanning [m, mx], against the entries test.
+            for (k, &m) in xs.iter().enumerate() {
+                let mx = m + width * pts[k % pts.len()].1;
+                let (m, mx) = (m as f32, mx as f32);
+                let Some(t) = super::start_tests(&runs, wneg, m, mx) else {
+                    continue;
+                };
+                for q in 0..=8 {
+                    for r in q..=8 {
+                        let at = |q: i32| m + (mx - m) * q as f32 / 8.0;
+                        let (l, h) = (at(q).min(mx), at(r).min(mx));
+                        if !t.iter().any(|&(l0, h0)| l >= l0 && h <= h0) {
+                            continue;
+                        }
+                        let (l, h) = (f64::from(l), f64::from(h));
+                        let e = 1e-5 * (l.abs() + h.abs() + 1.0);
+                        let (lo, hi) = (l - wneg * (h - l) - e, h + wneg * (h - l) + e);
+                        prop_assert!((a.index(lo)..=a.index(hi)).all(clear), "[{}, {}] {:?} {:?}", l, h, t, runs);
+                    }
+                }
+            }
+            // A run of at least 3 entries passes a narrow block in its middle.
+            for &(lo, hi) in &runs {
+                let (lo, hi) = (lo.max(min - width), hi.min(max + width));
+                if 1e-5 * (2.0 * lo.abs().max(hi.abs()) + 1.0) < (hi - lo) / 4.0 {
+                    let c = ((lo + hi) / 2.0) as f32;
+                    prop_assert!(super::start_tests(&runs, wneg, c, c).is_some(), "{} {:?}", c, runs);
+                }
+            }
+        }
+
         /// Fine and coarse blocks agree, and an empty fine block really is transparent,
         /// for tent and bspln3 on small volumes of a few levels (in patches) with an
         /// opacity step.
