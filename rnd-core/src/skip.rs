@@ -91,6 +91,10 @@ pub const COARSE_EMPTY: u8 = 2;
 /// magnitudes, which the bounds' `A`-terms bound.
 const ROUNDING: f64 = 1e-4;
 
+/// Relative margin for f32 rounding in the values a convolution reaches from a voxel
+/// range `[m, M]` (LUT tests): `VALUE_MARGIN·(|m| + |M| + 1)`.
+const VALUE_MARGIN: f64 = 1e-5;
+
 /// Largest Σ|w| of one axis's weights (derivative `d`: 0 or 1) over all fractional
 /// positions: sampled at 4097 positions plus a 1% margin, which exceeds what lies
 /// between samples (Σ|w| changes by at most Σ|w'| · 1/8192 there, below 0.002 for
@@ -199,6 +203,23 @@ enum Test<'l> {
     Bound(Linear),
 }
 
+/// Summed-area counts of `lut`'s entries with non-zero opacity (see [`Test::Opacity`]).
+fn nonzero_counts(lut: &Lut) -> Vec<usize> {
+    let e = lut.entries();
+    let n0 = lut.axes()[0].len;
+    let n1 = e.len() / n0;
+    let mut nz = alloc::vec![0usize; (n0 + 1) * (n1 + 1)];
+    for j in 0..n1 {
+        for i in 0..n0 {
+            let here = usize::from(e[i + n0 * j][3] != 0.0);
+            nz[(i + 1) + (n0 + 1) * (j + 1)] =
+                here + nz[i + (n0 + 1) * (j + 1)] + nz[(i + 1) + (n0 + 1) * j]
+                    - nz[i + (n0 + 1) * j];
+        }
+    }
+    nz
+}
+
 /// The maximal runs of first-axis entries of `lut` that are transparent in every row of
 /// the second axis (`nz` as in [`Test::Opacity`]), each as the values `[a, b)` whose
 /// [`crate::classify::LutAxis::index`] falls in it (−∞ and +∞ at the axis's ends);
@@ -272,8 +293,8 @@ fn first_at(a: &crate::classify::LutAxis, i: usize) -> f64 {
 /// up to two pairs `(l0, h0)` such that a start whose voxels lie in `[l, h]` with
 /// `l ≥ l0` and `h ≤ h0` reaches only values of one run. A start's reachable values
 /// are `[l − wneg·(h − l) − e, h + wneg·(h − l) + e]` with the rounding margin
-/// `e = 1e-5·(|l| + |h| + 1)` of [`SkipPlan::fill_slabs`]; inside the block both widths
-/// are at most `d = wneg·(mx − m) + 1e-5·(2·max(|m|, |mx|) + 1)`, so `l − d ≥ a` and
+/// `e = VALUE_MARGIN·(|l| + |h| + 1)` of [`SkipPlan::fill_slabs`]; inside the block both widths
+/// are at most `d = wneg·(mx − m) + VALUE_MARGIN·(2·max(|m|, |mx|) + 1)`, so `l − d ≥ a` and
 /// `h + d < b` put them in the run `[a, b)` (the f64 rounding of these sums is far
 /// below the margin). Runs no start of the block can meet are left out; unused pairs
 /// are (+∞, −∞), which nothing meets. None for a block whose range is not finite (a
@@ -283,7 +304,7 @@ fn start_tests(runs: &[(f64, f64)], wneg: f64, m: f32, mx: f32) -> Option<[(f32,
         return None;
     }
     let (m, mx) = (f64::from(m), f64::from(mx));
-    let d = wneg * (mx - m) + 1e-5 * (2.0 * m.abs().max(mx.abs()) + 1.0);
+    let d = wneg * (mx - m) + VALUE_MARGIN * (2.0 * m.abs().max(mx.abs()) + 1.0);
     let mut tests = [(f32::INFINITY, f32::NEG_INFINITY); 2];
     let mut n = 0;
     for &(a, b) in runs {
@@ -336,19 +357,7 @@ impl<'l> SkipPlan<'l> {
         // so v ∈ [m − W(M − m), M + W(M − m)] with W = (C − 1)/2.
         let c = abs_weight_sum(kernel, 0);
         let wneg = (c * c * c - 1.0) / 2.0;
-        // Summed-area counts of non-zero-opacity LUT entries.
-        let e = lut.entries();
-        let n0 = lut.axes()[0].len;
-        let n1 = e.len() / n0;
-        let mut nz = alloc::vec![0usize; (n0 + 1) * (n1 + 1)];
-        for j in 0..n1 {
-            for i in 0..n0 {
-                let here = usize::from(e[i + n0 * j][3] != 0.0);
-                nz[(i + 1) + (n0 + 1) * (j + 1)] =
-                    here + nz[i + (n0 + 1) * (j + 1)] + nz[(i + 1) + (n0 + 1) * j]
-                        - nz[i + (n0 + 1) * j];
-            }
-        }
+        let nz = nonzero_counts(lut);
         let gm = lut
             .axes()
             .iter()
@@ -548,7 +557,7 @@ impl<'l> SkipPlan<'l> {
                 return None;
             }
             let (m, mx) = (m as f64, mx as f64);
-            let margin = 1e-5 * (m.abs() + mx.abs() + 1.0);
+            let margin = VALUE_MARGIN * (m.abs() + mx.abs() + 1.0);
             Some(if kernel == KernelName::Zero {
                 // Every weight is 0: the value is 0 whatever the voxels are.
                 (0.0, 0.0)
@@ -762,7 +771,7 @@ fn starts_of<V: Voxel, const S: usize>(
     let o = fb.map(|b| b * F);
     // Starts per axis whose support is inside.
     let n = [0, 1, 2].map(|a| (sizes[a] + 1).saturating_sub(o[a] + S).min(F));
-    if n.contains(&0) || data.len() < sizes[0] * sizes[1] * sizes[2] {
+    if n.contains(&0) {
         return 0;
     }
     let last = sizes.map(|s| s - 1);
@@ -1364,15 +1373,7 @@ mod tests {
             let lut = Lut::with_axes(&axes, e.clone()).unwrap();
             let a = lut.axes()[0];
             let clear = |i: usize| (0..rows).all(|j| e[i + n0 * j][3] == 0.0);
-            let mut nz = alloc::vec![0usize; (n0 + 1) * (rows + 1)];
-            for j in 0..rows {
-                for i in 0..n0 {
-                    let here = usize::from(e[i + n0 * j][3] != 0.0);
-                    nz[(i + 1) + (n0 + 1) * (j + 1)] =
-                        here + nz[i + (n0 + 1) * (j + 1)] + nz[(i + 1) + (n0 + 1) * j] - nz[i + (n0 + 1) * j];
-                }
-            }
-            let runs = super::value_runs(&lut, &nz);
+            let runs = super::value_runs(&lut, &super::nonzero_counts(&lut));
             // Points: spread over the domain and beyond, and each run's ends.
             let mut xs: Vec<f64> = pts.iter().map(|&(u, _)| min - width + 3.0 * width * u).collect();
             for &(lo, hi) in &runs {
@@ -1401,7 +1402,7 @@ mod tests {
                             continue;
                         }
                         let (l, h) = (f64::from(l), f64::from(h));
-                        let e = 1e-5 * (l.abs() + h.abs() + 1.0);
+                        let e = super::VALUE_MARGIN * (l.abs() + h.abs() + 1.0);
                         let (lo, hi) = (l - wneg * (h - l) - e, h + wneg * (h - l) + e);
                         prop_assert!((a.index(lo)..=a.index(hi)).all(clear), "[{}, {}] {:?} {:?}", l, h, t, runs);
                     }
@@ -1410,7 +1411,7 @@ mod tests {
             // A run of at least 3 entries passes a narrow block in its middle.
             for &(lo, hi) in &runs {
                 let (lo, hi) = (lo.max(min - width), hi.min(max + width));
-                if 1e-5 * (2.0 * lo.abs().max(hi.abs()) + 1.0) < (hi - lo) / 4.0 {
+                if super::VALUE_MARGIN * (2.0 * lo.abs().max(hi.abs()) + 1.0) < (hi - lo) / 4.0 {
                     let c = ((lo + hi) / 2.0) as f32;
                     prop_assert!(super::start_tests(&runs, wneg, c, c).is_some(), "{} {:?}", c, runs);
                 }
