@@ -730,9 +730,9 @@ impl<'l> SkipPlan<'l> {
 
 /// [`SkipGrid::starts`] of fine block `fb` (block numbers per axis) of a volume of
 /// `sizes` voxels `data` reconstructed with a kernel of support `s`: set for each
-/// support start in the block whose whole support is inside and the least and greatest
-/// voxel it reads, `[l, h]` (found separably along x, y, z), meet one of the `tests`
-/// ([`start_tests`]). None below [`STARTS_MIN`].
+/// support start in the block whose whole support is inside and whose voxels, least `l`
+/// and greatest `h`, meet one of the `tests` (`l ≥ l0` and `h ≤ h0`, [`start_tests`]).
+/// None below [`STARTS_MIN`].
 fn start_bits<V: Voxel>(
     data: &[V],
     sizes: [usize; 3],
@@ -750,11 +750,12 @@ fn start_bits<V: Voxel>(
     }
 }
 
-/// [`start_bits`] for support `S`: four starts side by side along x (one `[f32; 4]` per
-/// row of starts, which the compiler keeps in one vector register), each voxel row
-/// reduced along x once and merged into the rows and planes of starts that read it.
-/// Reads past the volume's end repeat its last voxel; only the starts whose support is
-/// inside, which never read them, keep their bits.
+/// [`start_bits`] for support `S`, by voxels rather than ranges: a start's voxels lie
+/// in `[l0, h0]` exactly when each of them does (none is NaN: the block's range is
+/// finite), so each voxel the block's supports read is tested once, as a bit per test
+/// and row of voxels, and a start's bit is the AND of its voxels' bits, by shifts along
+/// x and row by row along y and z. Reads past the volume's end repeat its last voxel;
+/// only the starts whose support is inside, which never read them, keep their bits.
 #[inline(always)]
 fn starts_of<V: Voxel, const S: usize>(
     data: &[V],
@@ -762,66 +763,55 @@ fn starts_of<V: Voxel, const S: usize>(
     fb: [usize; 3],
     tests: &[(f32, f32); 2],
 ) -> u64 {
-    type Q = [f32; F];
-    const { assert!(S >= 1 && S <= 6) };
-    // Selects, not `f32::min`: no NaN here (the block's range is finite), and they
-    // compile to one instruction.
-    let lo = |a: Q, b: Q| -> Q { core::array::from_fn(|i| if b[i] < a[i] { b[i] } else { a[i] }) };
-    let hi = |a: Q, b: Q| -> Q { core::array::from_fn(|i| if b[i] > a[i] { b[i] } else { a[i] }) };
+    // Voxels per axis the block's supports read (at most F + 5), and the shift of the
+    // second test's bits in a row's word (above the first test's F + S − 1).
+    const { assert!(S >= 1 && S <= 6 && F + 5 <= 16) };
+    let w = F + S - 1;
     let o = fb.map(|b| b * F);
     // Starts per axis whose support is inside.
     let n = [0, 1, 2].map(|a| (sizes[a] + 1).saturating_sub(o[a] + S).min(F));
     if n.contains(&0) {
         return 0;
     }
-    let last = sizes.map(|s| s - 1);
-    let (inf, ninf) = ([f32::INFINITY; F], [f32::NEG_INFINITY; F]);
-    // Per row (j, k) of starts: the least and greatest voxel their supports read.
-    let mut acc = [[(inf, ninf); F]; F];
-    for z in 0..F + S - 1 {
-        let zz = (o[2] + z).min(last[2]);
-        let mut plane = [(inf, ninf); F];
-        for y in 0..F + S - 1 {
-            let at = (zz * sizes[1] + (o[1] + y).min(last[1])) * sizes[0];
-            let Some(row) = data.get(at..at + sizes[0]) else {
+    let at =
+        |a: usize| -> [usize; F + 5] { core::array::from_fn(|t| (o[a] + t).min(sizes[a] - 1)) };
+    let (xs, ys, zs) = (at(0), at(1), at(2));
+    let [(l0, h0), (l1, h1)] = *tests;
+    // Per voxel row (y, z): bit i (test 0) and bit 16 + i (test 1) set when the S voxels
+    // from x = i on all pass that test; then ANDed over the S rows from y = j on.
+    let mut cols = [[0u32; F]; F + 5];
+    for (z, col) in cols.iter_mut().enumerate().take(w) {
+        let mut rows = [0u32; F + 5];
+        for (y, r) in rows.iter_mut().enumerate().take(w) {
+            let base = (zs[z] * sizes[1] + ys[y]) * sizes[0];
+            let Some(row) = data.get(base..base + sizes[0]) else {
                 return 0;
             };
-            let mut v = [0.0f32; F + 5];
-            for t in 0..F + S - 1 {
-                v[t] = row[(o[0] + t).min(last[0])].to_f32();
+            let mut p = 0u32;
+            for (t, &x) in xs.iter().enumerate().take(w) {
+                let v = row.get(x).map_or(f32::NAN, |v| v.to_f32());
+                p |= u32::from((v >= l0) & (v <= h0)) << t;
+                p |= u32::from((v >= l1) & (v <= h1)) << (16 + t);
             }
-            let first: Q = core::array::from_fn(|i| v[i]);
-            let (mut l, mut h) = (first, first);
+            let mut q = p;
             for t in 1..S {
-                let w: Q = core::array::from_fn(|i| v[i + t]);
-                (l, h) = (lo(l, w), hi(h, w));
+                q &= p >> t;
             }
-            // Voxel row y serves the rows of starts j with j ≤ y < j + S.
-            for j in y.saturating_sub(S - 1)..=y.min(F - 1) {
-                plane[j] = (lo(plane[j].0, l), hi(plane[j].1, h));
-            }
+            *r = q;
         }
-        for k in z.saturating_sub(S - 1)..=z.min(F - 1) {
-            for j in 0..F {
-                acc[k][j] = (lo(acc[k][j].0, plane[j].0), hi(acc[k][j].1, plane[j].1));
-            }
+        for (j, c) in col.iter_mut().enumerate() {
+            *c = rows[j..j + S].iter().fold(!0, |c, &r| c & r);
         }
     }
-    let [(l0, h0), (l1, h1)] = *tests;
-    let (mut bits, mut inside) = (0u64, 0u64);
-    for k in 0..F {
-        for j in 0..F {
-            let (l, h) = acc[k][j];
-            for i in 0..F {
-                let hit = (l[i] >= l0) & (h[i] <= h0) | (l[i] >= l1) & (h[i] <= h1);
-                bits |= u64::from(hit) << (i + F * (j + F * k));
-            }
-            if j < n[1] && k < n[2] {
-                inside |= ((1 << n[0]) - 1) << (F * (j + F * k));
-            }
+    let mut bits = 0u64;
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            let c = cols[k..k + S].iter().fold(!0u32, |c, col| c & col[j]);
+            let hit = (c | c >> 16) & ((1 << n[0]) - 1);
+            bits |= u64::from(hit) << (F * (j + F * k));
         }
     }
-    bits & inside
+    bits
 }
 
 impl SkipGrid {
@@ -1414,6 +1404,60 @@ mod tests {
                 if super::VALUE_MARGIN * (2.0 * lo.abs().max(hi.abs()) + 1.0) < (hi - lo) / 4.0 {
                     let c = ((lo + hi) / 2.0) as f32;
                     prop_assert!(super::start_tests(&runs, wneg, c, c).is_some(), "{} {:?}", c, runs);
+                }
+            }
+        }
+
+        /// A block's start bits are, start by start, whether the start's support is
+        /// inside and its least and greatest voxel meet one of the tests (the
+        /// definition, read voxel by voxel here), for every support with bits, i16 and
+        /// f32 voxels, blocks at the volume's ends and tests that cut through the values.
+        #[test]
+        fn start_bits_are_the_supports_ranges(
+            sizes in prop::array::uniform3(1usize..14),
+            vals in prop::collection::vec(-4i16..5, 14 * 14 * 14),
+            cuts in prop::array::uniform4(-5.0f32..6.0),
+        ) {
+            use super::{start_bits, F};
+            let n = sizes[0] * sizes[1] * sizes[2];
+            let ints = &vals[..n];
+            let floats: Vec<f32> = ints.iter().map(|&v| f32::from(v) * 0.5).collect();
+            let tests = [(cuts[0], cuts[1]), (cuts[2], cuts[3])];
+            let halves = tests.map(|(l0, h0)| (l0 * 0.5, h0 * 0.5));
+            // The definition: bit (x, y, z) of block fb.
+            let want = |s: usize, fb: [usize; 3], tests: &[(f32, f32); 2], at: &dyn Fn(usize) -> f32| {
+                let mut bits = 0u64;
+                for b in 0..F * F * F {
+                    let st = [b % F + F * fb[0], b / F % F + F * fb[1], b / (F * F) + F * fb[2]];
+                    if (0..3).any(|a| st[a] + s > sizes[a]) {
+                        continue;
+                    }
+                    let (mut l, mut h) = (f32::INFINITY, f32::NEG_INFINITY);
+                    for c in 0..s * s * s {
+                        let q = [st[0] + c % s, st[1] + c / s % s, st[2] + c / (s * s)];
+                        let v = at(q[0] + sizes[0] * (q[1] + sizes[1] * q[2]));
+                        (l, h) = (l.min(v), h.max(v));
+                    }
+                    if tests.iter().any(|&(l0, h0)| l >= l0 && h <= h0) {
+                        bits |= 1 << b;
+                    }
+                }
+                bits
+            };
+            for s in [2usize, 3, 4, 6] {
+                for b in 0..sizes.iter().map(|&z| z.div_ceil(F)).product::<usize>() {
+                    let nb = sizes.map(|z| z.div_ceil(F));
+                    let fb = [b % nb[0], b / nb[0] % nb[1], b / (nb[0] * nb[1])];
+                    prop_assert_eq!(
+                        start_bits(ints, sizes, s, fb, &tests),
+                        want(s, fb, &tests, &|i| f32::from(ints[i])),
+                        "i16, support {}, block {:?}", s, fb
+                    );
+                    prop_assert_eq!(
+                        start_bits(&floats, sizes, s, fb, &halves),
+                        want(s, fb, &halves, &|i| floats[i]),
+                        "f32, support {}, block {:?}", s, fb
+                    );
                 }
             }
         }
