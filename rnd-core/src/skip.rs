@@ -763,9 +763,10 @@ fn starts_of<V: Voxel, const S: usize>(
     fb: [usize; 3],
     tests: &[(f32, f32); 2],
 ) -> u64 {
-    // Voxels per axis the block's supports read (at most F + 5), and the shift of the
-    // second test's bits in a row's word (above the first test's F + S − 1).
-    const { assert!(S >= 1 && S <= 6 && F + 5 <= 16) };
+    // Where the second test's bits start in a row's word: above the first test's, of
+    // which there are as many as voxels per axis the block's supports read (F + S − 1).
+    const SECOND: usize = 16;
+    const { assert!(S >= 1 && S <= 6 && F + 5 <= SECOND) };
     let w = F + S - 1;
     let o = fb.map(|b| b * F);
     // Starts per axis whose support is inside.
@@ -777,7 +778,7 @@ fn starts_of<V: Voxel, const S: usize>(
         |a: usize| -> [usize; F + 5] { core::array::from_fn(|t| (o[a] + t).min(sizes[a] - 1)) };
     let (xs, ys, zs) = (at(0), at(1), at(2));
     let [(l0, h0), (l1, h1)] = *tests;
-    // Per voxel row (y, z): bit i (test 0) and bit 16 + i (test 1) set when the S voxels
+    // Per voxel row (y, z): bit i (test 0) and bit SECOND + i (test 1) set when the S voxels
     // from x = i on all pass that test; then ANDed over the S rows from y = j on.
     let mut cols = [[0u32; F]; F + 5];
     for (z, col) in cols.iter_mut().enumerate().take(w) {
@@ -791,7 +792,7 @@ fn starts_of<V: Voxel, const S: usize>(
             for (t, &x) in xs.iter().enumerate().take(w) {
                 let v = row.get(x).map_or(f32::NAN, |v| v.to_f32());
                 p |= u32::from((v >= l0) & (v <= h0)) << t;
-                p |= u32::from((v >= l1) & (v <= h1)) << (16 + t);
+                p |= u32::from((v >= l1) & (v <= h1)) << (SECOND + t);
             }
             let mut q = p;
             for t in 1..S {
@@ -807,7 +808,7 @@ fn starts_of<V: Voxel, const S: usize>(
     for k in 0..n[2] {
         for j in 0..n[1] {
             let c = cols[k..k + S].iter().fold(!0u32, |c, col| c & col[j]);
-            let hit = (c | c >> 16) & ((1 << n[0]) - 1);
+            let hit = (c | c >> SECOND) & ((1 << n[0]) - 1);
             bits |= u64::from(hit) << (F * (j + F * k));
         }
     }
@@ -1445,8 +1446,8 @@ mod tests {
                 bits
             };
             for s in [2usize, 3, 4, 6] {
-                for b in 0..sizes.iter().map(|&z| z.div_ceil(F)).product::<usize>() {
-                    let nb = sizes.map(|z| z.div_ceil(F));
+                let nb = sizes.map(|z| z.div_ceil(F));
+                for b in 0..nb[0] * nb[1] * nb[2] {
                     let fb = [b % nb[0], b / nb[0] % nb[1], b / (nb[0] * nb[1])];
                     prop_assert_eq!(
                         start_bits(ints, sizes, s, fb, &tests),
