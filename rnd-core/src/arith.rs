@@ -453,9 +453,6 @@ pub(crate) struct Reference<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> {
     vix: ViewIndex,
     pub plane_sep: f32,
     pub unit_step: f32,
-    /// One ray of the camera (under an orthographic one, the others differ only in
-    /// their start: [`RefCamera::ortho_ray`]).
-    any_ray: RefRay,
     /// Per axis: the kernel's first support offset less the grid index of the first
     /// sample held (LO − origin: a support start relative to the samples held is
     /// floor + this), and the last index held relative to it (size − 1), in f32 (exact:
@@ -488,7 +485,6 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
             cam,
             plane_sep,
             unit_step,
-            any_ray: cam.ray(0, 0, plane_sep, unit_step),
             value: true,
             _k: core::marker::PhantomData,
         }
@@ -644,9 +640,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
 
     #[inline]
     fn ray(&self, hi: u32, vi: u32) -> RefRay {
-        let any = &self.any_ray;
-        (self.cam.ortho_ray(hi, vi, any))
-            .unwrap_or_else(|| self.cam.ray(hi, vi, self.plane_sep, self.unit_step))
+        self.cam.ray(hi, vi, self.plane_sep, self.unit_step)
     }
     #[inline(always)]
     fn alpha_exp(ray: &RefRay) -> f32 {

@@ -128,9 +128,6 @@ impl WorldLights {
 /// h = (l + v)·(1/|l + v|), specular ks·max(n·h, 0)^p not multiplied by the material
 /// colour: `ka m + Σ c (kd (n·l) m + ks (n·h)^p)`. Ambient only where the gradient is
 /// zero or not finite; no specular term where l + v is zero.
-///
-/// [`Halves`] does the same for many samples with one eye direction, making each
-/// light's half vector once.
 pub fn blinn_phong(
     ph: &Phong,
     lights: &[([f32; 3], [f32; 3])],
@@ -138,139 +135,27 @@ pub fn blinn_phong(
     g: [f32; 3],
     to_eye: [f32; 3],
 ) -> [f32; 3] {
-    let lit = lights.iter().map(|&(c, l)| (c, l, half(l, to_eye)));
-    shade(ph, lit, lights.is_empty(), m, g)
-}
-
-/// Lights with their half vectors for one direction to the eye: [`blinn_phong`]'s
-/// results, bit for bit, without making the half vectors at every sample (the
-/// direction is the same for every sample of a ray, and of every ray under an
-/// orthographic camera).
-#[derive(Debug, Clone, Default)]
-pub struct Halves {
-    /// The direction to the eye (bits) the half vectors are made for; None before any.
-    eye: Option<[u32; 3]>,
-    lit: Vec<HalfLit>,
-}
-
-/// A light's colour, unit direction and unit half vector (None where l + v is zero).
-type HalfLit = ([f32; 3], [f32; 3], Option<[f32; 3]>);
-
-impl Halves {
-    /// For world (colour, unit direction) `lights`.
-    pub fn new(lights: &[([f32; 3], [f32; 3])]) -> Self {
-        Halves {
-            eye: None,
-            lit: lights.iter().map(|&(c, l)| (c, l, None)).collect(),
-        }
-    }
-
-    /// [`blinn_phong`] with these lights; the half vectors are made again only when
-    /// `to_eye` is not the last call's (the same bits: every number from it is the same).
-    #[inline]
-    pub fn shade(&mut self, ph: &Phong, m: [f32; 3], g: [f32; 3], to_eye: [f32; 3]) -> [f32; 3] {
-        let bits = to_eye.map(f32::to_bits);
-        if self.eye != Some(bits) {
-            for (_, l, h) in &mut self.lit {
-                *h = half(*l, to_eye);
-            }
-            self.eye = Some(bits);
-        }
-        shade(ph, self.lit.iter().copied(), self.lit.is_empty(), m, g)
-    }
-}
-
-/// The unit half vector of light direction `l` and `to_eye`, None where their sum is 0.
-#[inline]
-fn half(l: [f32; 3], to_eye: [f32; 3]) -> Option<[f32; 3]> {
-    let h = [l[0] + to_eye[0], l[1] + to_eye[1], l[2] + to_eye[2]];
-    let hl = math::sqrtf(dot(h, h));
-    (hl > 0.0).then(|| scale(1.0 / hl, h))
-}
-
-#[inline(always)]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline(always)]
-fn scale(s: f32, a: [f32; 3]) -> [f32; 3] {
-    [s * a[0], s * a[1], s * a[2]]
-}
-
-/// The sum of [`blinn_phong`] over (colour, direction, half vector) triples.
-#[inline(always)]
-fn shade(
-    ph: &Phong,
-    lit: impl Iterator<Item = HalfLit>,
-    none: bool,
-    m: [f32; 3],
-    g: [f32; 3],
-) -> [f32; 3] {
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let scale = |s: f32, a: [f32; 3]| [s * a[0], s * a[1], s * a[2]];
     let mut out = scale(ph.ka, m);
     let gl = math::sqrtf(dot(g, g));
-    if none || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {
+    if lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) || gl == 0.0 || !gl.is_finite() {
         return out;
     }
     let nrm = scale(1.0 / gl, [-g[0], -g[1], -g[2]]);
-    let pow = crate::refarith::Power::new(ph.p);
-    for (c, l, h) in lit {
+    for &(c, l) in lights {
         let ndl = dot(nrm, l).max(0.0);
-        let sp = match h {
-            Some(h) => ph.ks * pow.of(dot(nrm, h).max(0.0)),
-            None => 0.0,
+        let h = [l[0] + to_eye[0], l[1] + to_eye[1], l[2] + to_eye[2]];
+        let hl = math::sqrtf(dot(h, h));
+        let sp = if hl > 0.0 {
+            let ndh = dot(nrm, scale(1.0 / hl, h)).max(0.0);
+            ph.ks * crate::refarith::powf(ndh, ph.p)
+        } else {
+            0.0
         };
         for i in 0..3 {
             out[i] += c[i] * (ph.kd * ndl * m[i] + sp);
         }
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The half vectors made once give [`blinn_phong`]'s bits, as the eye direction and
-    /// the lights change (zero, non-finite and opposite-to-the-eye cases included).
-    #[test]
-    fn halves_shade_as_blinn_phong() {
-        let mut seed = 7u64;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            ((seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        };
-        let unit = |v: [f32; 3]| scale(1.0 / math::sqrtf(dot(v, v)), v);
-        for round in 0..200 {
-            let to_eye = unit([rnd(), rnd(), rnd()]);
-            let n = round % 4;
-            let mut lights: Vec<_> = (0..n)
-                .map(|_| ([rnd() + 1.0, rnd() + 1.0, 0.5], unit([rnd(), rnd(), rnd()])))
-                .collect();
-            if round % 5 == 1 && n > 0 {
-                lights[0].1 = to_eye.map(|x| -x); // l + v = 0: no specular term
-            }
-            let ph = Phong {
-                p: [150.0, 1.0, 2.5, 40.0][(round / 4) % 4],
-                ks: if round % 7 == 3 { 0.0 } else { 0.1 },
-                ..Phong::default()
-            };
-            let mut halves = Halves::new(&lights);
-            let other = unit([rnd(), rnd(), rnd()]);
-            for s in 0..50 {
-                let m = [rnd().abs(), rnd().abs(), rnd().abs()];
-                let g = match s {
-                    0 => [0.0; 3],
-                    1 => [f32::NAN, 0.0, 1.0],
-                    2 => [f32::INFINITY, 0.0, 0.0],
-                    _ => [rnd() * 100.0, rnd(), rnd() * 1e-3],
-                };
-                // The eye direction changes now and then, as from ray to ray.
-                let eye = if s % 4 == 3 { other } else { to_eye };
-                let want = blinn_phong(&ph, &lights, m, g, eye).map(f32::to_bits);
-                let got = halves.shade(&ph, m, g, eye).map(f32::to_bits);
-                assert_eq!(got, want);
-            }
-        }
-    }
 }

@@ -17,7 +17,7 @@ use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
 use crate::brick::{Own, Partial};
 use crate::classify::Quantity;
 use crate::convo::{ConvoSample, SecondOrder};
-use crate::light::Halves;
+use crate::light::blinn_phong;
 use crate::probe::Probe;
 use crate::render::RenderSpec;
 use crate::skip::{SkipGrid, SkipKind, FINE, FINE_EMPTY};
@@ -76,8 +76,6 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     pub wait: Cell<u32>,
     /// Under `median`: the lists of samples, reused from ray to ray.
     pub kept: Cell<Kept>,
-    /// Under `rgbalit`: the lights' half vectors for the last ray's direction to the eye.
-    pub halves: Cell<Halves>,
     /// For a brick of a sort-last render: the stretch of each ray it casts; set when a
     /// ray's positions could lie too far from the exact line for its ghost layers.
     pub own: Option<Own>,
@@ -1066,9 +1064,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 let mut rgb = [e[0], e[1], e[2]];
                 // A transparent sample is not lit (it adds nothing under `over`).
                 if a != 0.0 && p.probe == Probe::RgbaLit {
-                    let mut h = self.halves.take();
-                    rgb = h.shade(&p.phong, rgb, gw, A::to_eye(ray));
-                    self.halves.set(h);
+                    rgb = blinn_phong(&p.phong, &sp.lights, rgb, gw, A::to_eye(ray));
                     if sp.depth_cue {
                         let tau = self.a.tau(ray, k);
                         for c in 0..3 {

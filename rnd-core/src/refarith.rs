@@ -150,7 +150,13 @@ impl RefCamera {
 
     /// The ray through pixel (hi, vi) with planes `plane_sep` apart (0: one sample).
     pub fn ray(&self, hi: u32, vi: u32, plane_sep: f32, unit_step: f32) -> RefRay {
-        let [pu, pv] = self.pixel(hi, vi);
+        // Cell centres of [-1, 1] (horizontal) and [1, -1] (vertical, top row first).
+        let lerp = |i: u32, n: u32, lo: f32, hi: f32| {
+            let t = (i as f32 + 0.5) / n as f32;
+            (1.0 - t) * lo + t * hi
+        };
+        let pu = self.wdth / 2.0 * lerp(hi, self.size[0], -1.0, 1.0);
+        let pv = self.hght / 2.0 * lerp(vi, self.size[1], 1.0, -1.0);
         let geom = |sep: f32| {
             if self.ortho {
                 ([pu, pv, -self.ncv], [0.0, 0.0, -sep])
@@ -170,35 +176,6 @@ impl RefCamera {
             alpha_exp: math::sqrtf(dot(step, step)) / unit_step,
             to_eye: [-s[0] * il, -s[1] * il, -s[2] * il],
         }
-    }
-
-    /// The view-space (u, v) of pixel (hi, vi) on the image plane.
-    #[inline]
-    fn pixel(&self, hi: u32, vi: u32) -> [f32; 2] {
-        // Cell centres of [-1, 1] (horizontal) and [1, -1] (vertical, top row first).
-        let lerp = |i: u32, n: u32, lo: f32, hi: f32| {
-            let t = (i as f32 + 0.5) / n as f32;
-            (1.0 - t) * lo + t * hi
-        };
-        [
-            self.wdth / 2.0 * lerp(hi, self.size[0], -1.0, 1.0),
-            self.hght / 2.0 * lerp(vi, self.size[1], 1.0, -1.0),
-        ]
-    }
-
-    /// [`RefCamera::ray`] through pixel (hi, vi) of an orthographic camera from `any`
-    /// ray of it with the same steps (the same bits: only the start of an orthographic
-    /// ray depends on its pixel); None for a perspective camera.
-    #[inline]
-    pub fn ortho_ray(&self, hi: u32, vi: u32, any: &RefRay) -> Option<RefRay> {
-        if !self.ortho {
-            return None;
-        }
-        let [pu, pv] = self.pixel(hi, vi);
-        Some(RefRay {
-            start: [pu, pv, -self.ncv],
-            ..*any
-        })
     }
 
     /// Whether every number of the frame is finite, the eye distance positive and the
@@ -617,76 +594,47 @@ impl<const S: usize> Lanes<S> {
 /// where `libm::powf` differs on about 10%.
 #[inline]
 pub fn powf(x: f32, y: f32) -> f32 {
-    Power::new(y).of(x)
+    if x == 0.0 && y > 0.0 {
+        // As the library's pow (C99 F.9.4.4): ±0 to an odd whole power is itself, to any
+        // other positive power +0 (specular powers of back-facing normals, often).
+        let odd = y < 16_777_216.0 && y == math::floorf(y) && (y as u32) % 2 == 1;
+        return if odd { x } else { 0.0 };
+    }
+    match powf_whole(x, y) {
+        Some(r) => r,
+        None => math::pow(x as f64, y as f64) as f32,
+    }
 }
 
-/// [`powf`] to one exponent, for many bases: what depends on the exponent alone is
-/// found once.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Power {
-    y: f32,
-    /// y when it is a whole number in [1, 2^16] (see [`Power::whole`]).
-    whole: Option<u32>,
-    /// Whether y is an odd whole number (below 2^24).
-    odd: bool,
-}
-
-impl Power {
-    #[inline]
-    pub(crate) fn new(y: f32) -> Self {
-        let int = y == math::floorf(y);
-        Power {
-            y,
-            whole: ((1.0..=65_536.0).contains(&y) && int).then_some(y as u32),
-            odd: (0.0..16_777_216.0).contains(&y) && int && (y as u32) % 2 == 1,
-        }
+/// [`powf`] without the library `pow`, where that is provably the same f32: for a whole
+/// exponent y in [1, 2^16] and x in (0, 1] (specular powers), x^y by repeated squaring
+/// in f64 is within (y + 33)·2^-53 of the exact power (each squaring doubles the
+/// relative error so far and adds 2^-53; the multiplications into the result add 2^-53
+/// each), the library's `pow` within 2 ulps. When everything within a wider bound
+/// rounds to one f32, both do; otherwise (near a rounding boundary, or a result close
+/// to the f64 underflow) None.
+#[inline]
+fn powf_whole(x: f32, y: f32) -> Option<f32> {
+    if !(x > 0.0 && x <= 1.0 && (1.0..=65_536.0).contains(&y) && y == math::floorf(y)) {
+        return None;
     }
-
-    /// `x^y` as [`powf`].
-    #[inline]
-    pub(crate) fn of(&self, x: f32) -> f32 {
-        if x == 0.0 && self.y > 0.0 {
-            // As the library's pow (C99 F.9.4.4): ±0 to an odd whole power is itself, to
-            // any other positive power +0 (specular powers of back-facing normals, often).
-            return if self.odd { x } else { 0.0 };
+    let (mut n, mut b, mut r) = (y as u32, x as f64, 1.0f64);
+    loop {
+        if n & 1 == 1 {
+            r *= b;
         }
-        match self.whole(x) {
-            Some(r) => r,
-            None => math::pow(x as f64, self.y as f64) as f32,
+        n >>= 1;
+        if n == 0 {
+            break;
         }
+        b *= b;
     }
-
-    /// `x^y` without the library `pow`, where that is provably the same f32: for a whole
-    /// exponent y in [1, 2^16] and x in (0, 1] (specular powers), x^y by repeated
-    /// squaring in f64 is within (y + 33)·2^-53 of the exact power (each squaring
-    /// doubles the relative error so far and adds 2^-53; the multiplications into the
-    /// result add 2^-53 each), the library's `pow` within 2 ulps. When everything within
-    /// a wider bound rounds to one f32, both do; otherwise (near a rounding boundary, or
-    /// a result close to the f64 underflow) None.
-    #[inline]
-    fn whole(&self, x: f32) -> Option<f32> {
-        let n = self.whole?;
-        if !(x > 0.0 && x <= 1.0) {
-            return None;
-        }
-        let (mut n, mut b, mut r) = (n, x as f64, 1.0f64);
-        loop {
-            if n & 1 == 1 {
-                r *= b;
-            }
-            n >>= 1;
-            if n == 0 {
-                break;
-            }
-            b *= b;
-        }
-        if r < 1e-290 {
-            return None;
-        }
-        let e = (self.y as f64 + 64.0) * f64::EPSILON;
-        let (lo, hi) = ((r * (1.0 - e)) as f32, (r * (1.0 + e)) as f32);
-        (lo == hi).then_some(lo)
+    if r < 1e-290 {
+        return None;
     }
+    let e = (y as f64 + 64.0) * f64::EPSILON;
+    let (lo, hi) = ((r * (1.0 - e)) as f32, (r * (1.0 + e)) as f32);
+    (lo == hi).then_some(lo)
 }
 
 /// Opacity `a` clamped to [0, 1] and corrected for `ex` unit steps: 1 − (1 − a)^ex.
@@ -704,7 +652,6 @@ pub fn correct_alpha(a: f32, ex: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::kernel::{Bspln3, Tent};
-    use alloc::format;
 
     #[test]
     fn bspln3_reference_form_matches_the_kernel() {
@@ -751,40 +698,6 @@ mod tests {
     const IDENTITY: [f64; 16] = [
         1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
     ];
-
-    /// An orthographic ray made from another pixel's is [`RefCamera::ray`], bit for bit.
-    #[test]
-    fn ortho_rays_are_the_rays() {
-        for (i, (sep, unit)) in [(1.0f32, 1.0f32), (0.37, 0.5), (0.0, 1.0), (2.5, 3.0)]
-            .into_iter()
-            .enumerate()
-        {
-            let spec = CameraSpec {
-                from: [6. + i as f64, -12., 5.3],
-                at: [0.5, 0.25, -1.0],
-                up: [0.1, 0., 1.],
-                near: -2.3,
-                far: 2.3,
-                fov: 14. + 9. * i as f64,
-                size: [7 + i as u32, 5],
-                orthographic: true,
-            };
-            let cam = RefCamera::new(&spec);
-            let any = cam.ray(3, 1, sep, unit);
-            for hi in 0..spec.size[0] {
-                for vi in 0..spec.size[1] {
-                    // (Debug output tells -0 from 0, as == does not.)
-                    let want = format!("{:?}", Some(cam.ray(hi, vi, sep, unit)));
-                    assert_eq!(format!("{:?}", cam.ortho_ray(hi, vi, &any)), want);
-                }
-            }
-            let persp = RefCamera::new(&CameraSpec {
-                orthographic: false,
-                ..spec
-            });
-            assert_eq!(persp.ortho_ray(0, 0, &any), None);
-        }
-    }
 
     #[test]
     fn centre_ray_runs_along_minus_n() {
@@ -928,7 +841,7 @@ mod lane_tests {
                 let want = math::pow(x as f64, y as f64) as f32;
                 assert_eq!(powf(x, y).to_bits(), want.to_bits(), "{x:e}^{y}");
                 if i % 3 != 2 {
-                    fast += Power::new(y).whole(x).is_some() as usize;
+                    fast += powf_whole(x, y).is_some() as usize;
                 }
             }
         }

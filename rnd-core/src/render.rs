@@ -912,7 +912,6 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         idle: core::cell::Cell::new(0),
         wait: core::cell::Cell::new(0),
         kept: core::cell::Cell::new(crate::blend::Kept::new()),
-        halves: core::cell::Cell::new(crate::light::Halves::new(&spec.lights)),
     }
 }
 
