@@ -682,7 +682,7 @@ impl<'l> SkipPlan<'l> {
                                 !0
                             } else {
                                 start_tests(runs, wneg, fmin[l], fmax[l])
-                                    .map_or(0, |t| start_bits(data, sizes, s, fb, &t))
+                                    .map_or(0, |t| start_bits(self.simd, data, sizes, s, fb, &t))
                             };
                             all & e
                         });
@@ -734,6 +734,7 @@ impl<'l> SkipPlan<'l> {
 /// and greatest `h`, meet one of the `tests` (`l ≥ l0` and `h ≤ h0`, [`start_tests`]).
 /// None below [`STARTS_MIN`].
 fn start_bits<V: Voxel>(
+    simd: Simd,
     data: &[V],
     sizes: [usize; 3],
     s: usize,
@@ -741,23 +742,31 @@ fn start_bits<V: Voxel>(
     tests: &[(f32, f32); 2],
 ) -> u64 {
     const _: () = assert!(STARTS_MIN == 2);
-    match s {
-        2 => starts_of::<V, 2>(data, sizes, fb, tests),
-        3 => starts_of::<V, 3>(data, sizes, fb, tests),
-        4 => starts_of::<V, 4>(data, sizes, fb, tests),
-        6 => starts_of::<V, 6>(data, sizes, fb, tests),
-        _ => 0,
-    }
+    // Compiled for the vector level here: the callers' loop over a coarse block's fine
+    // blocks is a function of its own, built for the baseline, where the row tests'
+    // vector instructions would each become a call.
+    crate::simd::wide(simd, {
+        #[inline(always)]
+        || match s {
+            2 => starts_of::<V, 2>(simd, data, sizes, fb, tests),
+            3 => starts_of::<V, 3>(simd, data, sizes, fb, tests),
+            4 => starts_of::<V, 4>(simd, data, sizes, fb, tests),
+            6 => starts_of::<V, 6>(simd, data, sizes, fb, tests),
+            _ => 0,
+        }
+    })
 }
 
 /// [`start_bits`] for support `S`, by voxels rather than ranges: a start's voxels lie
 /// in `[l0, h0]` exactly when each of them does (none is NaN: the block's range is
 /// finite), so each voxel the block's supports read is tested once, as a bit per test
-/// and row of voxels, and a start's bit is the AND of its voxels' bits, by shifts along
-/// x and row by row along y and z. Reads past the volume's end repeat its last voxel;
+/// and row of voxels (a row's voxels at once at AVX2, [`crate::simd::in_range_bits`]),
+/// and a start's bit is the AND of its voxels' bits, by shifts along x and row by row
+/// along y and z. Reads past the volume's end repeat its last voxel;
 /// only the starts whose support is inside, which never read them, keep their bits.
 #[inline(always)]
 fn starts_of<V: Voxel, const S: usize>(
+    simd: Simd,
     data: &[V],
     sizes: [usize; 3],
     fb: [usize; 3],
@@ -768,6 +777,8 @@ fn starts_of<V: Voxel, const S: usize>(
     const SECOND: usize = 16;
     const { assert!(S >= 1 && S <= 6 && F + 5 <= SECOND) };
     let w = F + S - 1;
+    // The bits of a row's word that its voxels set: w per test.
+    let word: u32 = ((1 << w) - 1) * (1 | 1 << SECOND);
     let o = fb.map(|b| b * F);
     // Starts per axis whose support is inside.
     let n = [0, 1, 2].map(|a| (sizes[a] + 1).saturating_sub(o[a] + S).min(F));
@@ -788,12 +799,25 @@ fn starts_of<V: Voxel, const S: usize>(
             let Some(row) = data.get(base..base + sizes[0]) else {
                 return 0;
             };
-            let mut p = 0u32;
-            for (t, &x) in xs.iter().enumerate().take(w) {
-                let v = row.get(x).map_or(f32::NAN, |v| v.to_f32());
-                p |= u32::from((v >= l0) & (v <= h0)) << t;
-                p |= u32::from((v >= l1) & (v <= h1)) << (SECOND + t);
-            }
+            // Eight or sixteen voxels from x = o[0] at once where the row holds the w
+            // read and the data the rest (their bits cleared), else voxel by voxel.
+            let fast = match data.get(base + o[0]..).filter(|_| o[0] + w <= sizes[0]) {
+                Some(r) if w <= 8 => crate::simd::in_range_bits::<V, 1>(simd, r, tests),
+                Some(r) => crate::simd::in_range_bits::<V, 2>(simd, r, tests),
+                None => None,
+            };
+            let p = match fast {
+                Some(p) => p & word,
+                None => {
+                    let mut p = 0u32;
+                    for (t, &x) in xs.iter().enumerate().take(w) {
+                        let v = row.get(x).map_or(f32::NAN, |v| v.to_f32());
+                        p |= u32::from((v >= l0) & (v <= h0)) << t;
+                        p |= u32::from((v >= l1) & (v <= h1)) << (SECOND + t);
+                    }
+                    p
+                }
+            };
             let mut q = p;
             for t in 1..S {
                 q &= p >> t;
@@ -1415,11 +1439,12 @@ mod tests {
         /// f32 voxels, blocks at the volume's ends and tests that cut through the values.
         #[test]
         fn start_bits_are_the_supports_ranges(
-            sizes in prop::array::uniform3(1usize..14),
-            vals in prop::collection::vec(-4i16..5, 14 * 14 * 14),
+            sizes in (1usize..22, 1usize..14, 1usize..14).prop_map(|(x, y, z)| [x, y, z]),
+            vals in prop::collection::vec(-4i16..5, 22 * 14 * 14),
             cuts in prop::array::uniform4(-5.0f32..6.0),
         ) {
             use super::{start_bits, F};
+            use crate::simd::{Simd, SimdLevel};
             let n = sizes[0] * sizes[1] * sizes[2];
             let ints = &vals[..n];
             let floats: Vec<f32> = ints.iter().map(|&v| f32::from(v) * 0.5).collect();
@@ -1449,16 +1474,19 @@ mod tests {
                 let nb = sizes.map(|z| z.div_ceil(F));
                 for b in 0..nb[0] * nb[1] * nb[2] {
                     let fb = [b % nb[0], b / nb[0] % nb[1], b / (nb[0] * nb[1])];
-                    prop_assert_eq!(
-                        start_bits(ints, sizes, s, fb, &tests),
-                        want(s, fb, &tests, &|i| f32::from(ints[i])),
-                        "i16, support {}, block {:?}", s, fb
-                    );
-                    prop_assert_eq!(
-                        start_bits(&floats, sizes, s, fb, &halves),
-                        want(s, fb, &halves, &|i| floats[i]),
-                        "f32, support {}, block {:?}", s, fb
-                    );
+                    // Both the vector rows (where the processor has them) and the portable.
+                    for simd in [Simd::detect(), Simd::at_most(SimdLevel::Baseline)] {
+                        prop_assert_eq!(
+                            start_bits(simd, ints, sizes, s, fb, &tests),
+                            want(s, fb, &tests, &|i| f32::from(ints[i])),
+                            "i16, support {}, block {:?}, {:?}", s, fb, simd
+                        );
+                        prop_assert_eq!(
+                            start_bits(simd, &floats, sizes, s, fb, &halves),
+                            want(s, fb, &halves, &|i| floats[i]),
+                            "f32, support {}, block {:?}, {:?}", s, fb, simd
+                        );
+                    }
                 }
             }
         }

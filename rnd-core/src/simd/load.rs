@@ -18,6 +18,13 @@ pub trait Load: Copy {
     /// support AVX2.
     #[cfg(target_arch = "x86_64")]
     unsafe fn load4x2(p: [*const Self; 2]) -> core::arch::x86_64::__m256;
+    /// Eight consecutive voxels starting at `p`, converted to f32 lanes (AVX2).
+    ///
+    /// # Safety
+    /// `p` must point at eight readable consecutive voxels, and the CPU must support
+    /// AVX2.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load8(p: *const Self) -> core::arch::x86_64::__m256;
     /// Four rows of four voxels, from `p[i]` in 128-bit lane i, converted to f32 lanes
     /// (AVX-512F).
     ///
@@ -53,6 +60,13 @@ impl Load for f32 {
     unsafe fn load4x2(p: [*const f32; 2]) -> core::arch::x86_64::__m256 {
         // SAFETY: the caller guarantees 4 readable f32 at each pointer.
         unsafe { core::arch::x86_64::_mm256_loadu2_m128(p[1], p[0]) }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load8(p: *const f32) -> core::arch::x86_64::__m256 {
+        // SAFETY: the caller guarantees 8 readable f32 at p.
+        unsafe { core::arch::x86_64::_mm256_loadu_ps(p) }
     }
     #[cfg(target_arch = "x86_64")]
     #[inline]
@@ -113,6 +127,15 @@ impl Load for i16 {
             let both = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), p[1] as *const f64));
             _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(both))
         }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load8(p: *const i16) -> core::arch::x86_64::__m256 {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees 8 readable i16 (16 bytes) at p, read unaligned;
+        // sign extension to 32 bits and conversion are exact.
+        unsafe { _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128(p as *const __m128i))) }
     }
     #[cfg(target_arch = "x86_64")]
     #[inline]

@@ -3,6 +3,8 @@
 //!
 //! - [`Simd`]: the vector level, chosen once per render and passed down (no global).
 //! - `load`: voxel rows to f32 lanes (SSE2, AVX2, AVX-512F), for `f32` and `i16`.
+//! - `in_range_bits`: which voxels of a row lie in two intervals, eight per compare at
+//!   AVX2 (the skip grid's start bits, [`crate::skip`]).
 //! - `sse`: the support-2 and support-4 sums of one sample in SSE registers, and four
 //!   world-space gradient magnitudes at once (the f64 engine, [`crate::convo`]).
 //! - `cubic`: the support-4 sums of two (AVX2) or four (AVX-512) samples at once, one
@@ -232,6 +234,43 @@ pub(crate) fn sqrt_lanes<const N: usize>(simd: Simd, x: &mut [f32; N]) {
     for v in x.iter_mut() {
         *v = crate::math::sqrtf(*v);
     }
+}
+
+/// The bits of voxels `row[..8·C]` (as f32) that pass two interval tests: bit t when
+/// `row[t]` lies in `tests[0]` (`l ≤ v ≤ h`), bit 16 + t when it lies in `tests[1]` (a
+/// NaN voxel passes neither). At AVX2 and above eight voxels per compare; `None` below
+/// AVX2, or where `row` holds fewer than 8·C voxels (the caller tests voxel by voxel).
+#[inline(always)]
+pub(crate) fn in_range_bits<V: Load, const C: usize>(
+    simd: Simd,
+    row: &[V],
+    tests: &[(f32, f32); 2],
+) -> Option<u32> {
+    const { assert!(C == 1 || C == 2) };
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() && row.len() >= 8 * C {
+        use core::arch::x86_64::{
+            _mm256_and_ps, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_set1_ps, _CMP_GE_OQ,
+            _CMP_LE_OQ,
+        };
+        let mut bits = 0u32;
+        for c in 0..C {
+            // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 is
+            // supported; `row` holds at least 8·C voxels, so eight from 8·c are readable.
+            // The ordered compares are false for NaN, as `>=` and `<=` are.
+            let pass = |v, (l, h): (f32, f32)| unsafe {
+                let ge = _mm256_cmp_ps::<_CMP_GE_OQ>(v, _mm256_set1_ps(l));
+                let le = _mm256_cmp_ps::<_CMP_LE_OQ>(v, _mm256_set1_ps(h));
+                _mm256_movemask_ps(_mm256_and_ps(ge, le)) as u32
+            };
+            // SAFETY: as above.
+            let v = unsafe { V::load8(row.as_ptr().add(8 * c)) };
+            bits |= pass(v, tests[0]) << (8 * c) | pass(v, tests[1]) << (16 + 8 * c);
+        }
+        return Some(bits);
+    }
+    let _ = (simd, row, tests);
+    None
 }
 
 /// The S×S×S supports of N samples in a volume's data (x fastest, rows `s0` voxels
