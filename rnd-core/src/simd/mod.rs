@@ -253,17 +253,17 @@ pub(crate) fn in_range_bits<V: Load, const C: usize>(
             _mm256_and_ps, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_set1_ps, _CMP_GE_OQ,
             _CMP_LE_OQ,
         };
+        // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 is supported;
+        // registers only. The ordered compares are false for NaN, as `>=` and `<=` are.
+        let pass = |v, (l, h): (f32, f32)| unsafe {
+            let ge = _mm256_cmp_ps::<_CMP_GE_OQ>(v, _mm256_set1_ps(l));
+            let le = _mm256_cmp_ps::<_CMP_LE_OQ>(v, _mm256_set1_ps(h));
+            _mm256_movemask_ps(_mm256_and_ps(ge, le)) as u32
+        };
         let mut bits = 0u32;
         for c in 0..C {
-            // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 is
-            // supported; `row` holds at least 8·C voxels, so eight from 8·c are readable.
-            // The ordered compares are false for NaN, as `>=` and `<=` are.
-            let pass = |v, (l, h): (f32, f32)| unsafe {
-                let ge = _mm256_cmp_ps::<_CMP_GE_OQ>(v, _mm256_set1_ps(l));
-                let le = _mm256_cmp_ps::<_CMP_LE_OQ>(v, _mm256_set1_ps(h));
-                _mm256_movemask_ps(_mm256_and_ps(ge, le)) as u32
-            };
-            // SAFETY: as above.
+            // SAFETY: AVX2 as above; `row` holds at least 8·C voxels, so the eight from
+            // 8·c are readable.
             let v = unsafe { V::load8(row.as_ptr().add(8 * c)) };
             bits |= pass(v, tests[0]) << (8 * c) | pass(v, tests[1]) << (16 + 8 * c);
         }
