@@ -2,8 +2,8 @@
 //!
 //! This crate is `#![no_std]` and defines its own panic handler. If any crate in its
 //! dependency graph (i.e. `rnd-core` or one of its dependencies) pulled in `std`, the
-//! build would fail with "found duplicate lang item `panic_impl`". CI builds it alone with
-//! `cargo build -p nostd-check`.
+//! check would fail with "found duplicate lang item `panic_impl`". CI checks it alone with
+//! `cargo check --manifest-path nostd-check/Cargo.toml`.
 #![no_std]
 
 /// Touches a few core items so the dependency is really linked.

@@ -50,6 +50,14 @@ pub(crate) struct Placed<const N: usize> {
     past: [bool; N],
 }
 
+/// Work to run with a strategy's batch size (see [`Arith::batched`]).
+pub(crate) trait BatchTask {
+    /// What the task returns.
+    type Output;
+    /// Runs with batches of `N` samples.
+    fn run<const N: usize>(self) -> Self::Output;
+}
+
 /// One arithmetic: what the loop asks of the geometry, the convolution and the
 /// compositing of a sample.
 pub(crate) trait Arith {
@@ -57,8 +65,9 @@ pub(crate) trait Arith {
     type Ray: Copy;
     /// Fractional offsets of a placed sample.
     type Frac: Copy + Default;
-    /// Samples convolved together by the batched loop (8 or 16).
-    const BATCH: usize;
+    /// Runs `task` with the number of samples the batched loop convolves together in
+    /// this strategy (8 or 16), so that only that batch size is compiled.
+    fn batched<T: BatchTask>(task: T) -> T::Output;
 
     /// The ray through pixel (hi, vi).
     fn ray(&self, hi: u32, vi: u32) -> Self::Ray;
@@ -270,7 +279,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for F64<'_, '_, V, K, S> {
     type Ray = F64Ray;
     type Frac = [f64; 3];
     type Block<const N: usize> = Placed<N>;
-    const BATCH: usize = 8;
+    #[inline(always)]
+    fn batched<T: BatchTask>(task: T) -> T::Output {
+        task.run::<8>()
+    }
 
     #[inline]
     fn ray(&self, hi: u32, vi: u32) -> F64Ray {
@@ -636,7 +648,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
     type Ray = RefRay;
     type Frac = [f32; 3];
     type Block<const N: usize> = Lanes3<N>;
-    const BATCH: usize = LANES;
+    #[inline(always)]
+    fn batched<T: BatchTask>(task: T) -> T::Output {
+        task.run::<LANES>()
+    }
 
     #[inline]
     fn ray(&self, hi: u32, vi: u32) -> RefRay {

@@ -12,7 +12,7 @@
 use alloc::vec::Vec;
 use core::cell::Cell;
 
-use crate::arith::{gmag, Arith, Line, Memo};
+use crate::arith::{gmag, Arith, BatchTask, Line, Memo};
 use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
 use crate::brick::{Own, Partial};
 use crate::classify::Quantity;
@@ -376,22 +376,49 @@ impl<F: Default + Copy, const N: usize> Batch<F, N> {
     }
 }
 
+/// A ray for the batched loop, cast with the strategy's batch size.
+struct Batched<'m, 's, 'a, 'o, 't, A: Arith> {
+    march: &'m March<'s, 'a, A>,
+    hi: u32,
+    vi: u32,
+    out: Out<'o>,
+    trace: Trace<'t>,
+}
+
+impl<A: Arith> BatchTask for Batched<'_, '_, '_, '_, '_, A> {
+    type Output = ();
+    #[inline(always)]
+    fn run<const N: usize>(self) {
+        let Batched {
+            march,
+            hi,
+            vi,
+            out,
+            trace,
+        } = self;
+        crate::simd::wide(march.spec.simd, {
+            #[inline(always)]
+            || match march.spec.need_grad {
+                true => march.run::<true, N, 8>(hi, vi, out, trace),
+                false => march.run::<false, N, 8>(hi, vi, out, trace),
+            }
+        })
+    }
+}
+
 impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// Casts the ray through pixel (hi, vi) into `out` (the probe's channels, or the
     /// partial blend of the brick's stretch).
     pub fn cast(&self, hi: u32, vi: u32, out: Out<'_>, mode: Loop, trace: Trace<'_>) {
-        let wide = A::BATCH > 8;
-        match (mode, self.spec.need_grad, wide) {
-            (Loop::OneSample, true, _) => self.run::<true, 1, 1>(hi, vi, out, trace),
-            (Loop::OneSample, false, _) => self.run::<false, 1, 1>(hi, vi, out, trace),
-            (Loop::Batched, g, wide) => crate::simd::wide(self.spec.simd, {
-                #[inline(always)]
-                || match (g, wide) {
-                    (true, false) => self.run::<true, 8, 8>(hi, vi, out, trace),
-                    (false, false) => self.run::<false, 8, 8>(hi, vi, out, trace),
-                    (true, true) => self.run::<true, 16, 8>(hi, vi, out, trace),
-                    (false, true) => self.run::<false, 16, 8>(hi, vi, out, trace),
-                }
+        match (mode, self.spec.need_grad) {
+            (Loop::OneSample, true) => self.run::<true, 1, 1>(hi, vi, out, trace),
+            (Loop::OneSample, false) => self.run::<false, 1, 1>(hi, vi, out, trace),
+            (Loop::Batched, _) => A::batched(Batched {
+                march: self,
+                hi,
+                vi,
+                out,
+                trace,
             }),
         }
     }
@@ -558,7 +585,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 let mut res = [[0.0f32; 4]; N];
                 if self.a.convolve_run::<G, N>(&ray, k, exact, &mut res) {
                     let ks = core::array::from_fn(|i| k + i as u32);
-                    if self.blend_batch::<G, N>(&ray, &mut st, &ks, N, &res) {
+                    if self.blend_run::<G, N>(&ray, &mut st, &ks, &res) {
                         return self.finish(&mut st, out);
                     }
                     k += N as u32;
@@ -793,9 +820,37 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         b: &mut Batch<A::Frac, N>,
         m: usize,
     ) -> bool {
-        if m == 0 {
-            return false;
-        }
+        m > 0 && self.flush_batch::<G, N>(ray, st, b, m)
+    }
+
+    /// [`March::flush`] of a batch that is not empty. One function, not inlined: a ray
+    /// loop flushes from a score of places, and a copy of the convolution, probe and
+    /// shading at each made the library's code (and build time) many times larger.
+    /// A call per batch costs next to nothing; the batch is convolved, probed and blended
+    /// in code compiled for the widest level the render allows (as the ray loop is).
+    #[inline(never)]
+    fn flush_batch<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        b: &mut Batch<A::Frac, N>,
+        m: usize,
+    ) -> bool {
+        crate::simd::wide(self.spec.simd, {
+            #[inline(always)]
+            || self.convolve_blend::<G, N>(ray, st, b, m)
+        })
+    }
+
+    /// The body of [`March::flush_batch`].
+    #[inline(always)]
+    fn convolve_blend<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        b: &mut Batch<A::Frac, N>,
+        m: usize,
+    ) -> bool {
         let sp = self.spec;
         if sp.second {
             return self.flush_second::<G, N>(ray, st, b, m);
@@ -913,6 +968,22 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             }
         }
         (0..m).any(|i| self.take::<G>(ray, st, ks[i], res[i], Known::default()))
+    }
+
+    /// [`March::blend_batch`] of a whole run of `N` samples, not inlined (as
+    /// [`March::flush_batch`]).
+    #[inline(never)]
+    fn blend_run<const G: bool, const N: usize>(
+        &self,
+        ray: &A::Ray,
+        st: &mut State<'_>,
+        ks: &[u32; N],
+        res: &[[f32; 4]; N],
+    ) -> bool {
+        crate::simd::wide(self.spec.simd, {
+            #[inline(always)]
+            || self.blend_batch::<G, N>(ray, st, ks, N, res)
+        })
     }
 
     /// Blends the one-channel probe's values `xs` of samples `ks` (max/min/sum/mean...,
@@ -1130,8 +1201,28 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// fine block counts at once (when its last sample is before the far plane); the
     /// other samples are placed and go one at a time, as without the walk. With
     /// `until_counted`, only until a sample is counted.
-    #[inline(always)]
+    ///
+    /// Not inlined (a ray loop walks from three places); compiled for the widest level
+    /// the render allows, as the ray loop is.
+    #[inline(never)]
     fn walk<const G: bool, const N: usize, const P: usize>(
+        &self,
+        ray: &A::Ray,
+        sk: &SkipGrid,
+        jl: &Jumps,
+        ks: (u32, u32),
+        st: &mut State<'_>,
+        until_counted: bool,
+    ) {
+        crate::simd::wide(self.spec.simd, {
+            #[inline(always)]
+            || self.walk_in::<G, N, P>(ray, sk, jl, ks, st, until_counted)
+        })
+    }
+
+    /// The body of [`March::walk`].
+    #[inline(always)]
+    fn walk_in<const G: bool, const N: usize, const P: usize>(
         &self,
         ray: &A::Ray,
         sk: &SkipGrid,
