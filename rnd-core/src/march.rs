@@ -398,9 +398,12 @@ impl<A: Arith> BatchTask for Batched<'_, '_, '_, '_, '_, A> {
         } = self;
         crate::simd::wide(march.spec.simd, {
             #[inline(always)]
-            || match march.spec.need_grad {
-                true => march.run::<true, N, 8>(hi, vi, out, trace),
-                false => march.run::<false, N, 8>(hi, vi, out, trace),
+            || {
+                if march.spec.need_grad {
+                    march.run::<true, N, 8>(hi, vi, out, trace)
+                } else {
+                    march.run::<false, N, 8>(hi, vi, out, trace)
+                }
             }
         })
     }
@@ -827,7 +830,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// loop flushes from a score of places, and a copy of the convolution, probe and
     /// shading at each made the library's code (and build time) many times larger.
     /// A call per batch costs next to nothing; the batch is convolved, probed and blended
-    /// in code compiled for the widest level the render allows (as the ray loop is).
+    /// in code compiled for the widest level the render allows (as the batched loop is;
+    /// the same bits at every level).
     #[inline(never)]
     fn flush_batch<const G: bool, const N: usize>(
         &self,
@@ -1203,7 +1207,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
     /// `until_counted`, only until a sample is counted.
     ///
     /// Not inlined (a ray loop walks from three places); compiled for the widest level
-    /// the render allows, as the ray loop is.
+    /// the render allows, as the batched loop is.
     #[inline(never)]
     fn walk<const G: bool, const N: usize, const P: usize>(
         &self,
