@@ -236,6 +236,23 @@ impl Kernel<2> for Tent {
     fn d2<T: Float>(_x: T) -> T {
         T::zero()
     }
+    /// With `al` in [0, 1): `k_ref(al)` is `1 − al`, and `k_ref(al − 1)` is `1 − |al − 1|`
+    /// with `|al − 1|` the same rounding of `1 − al`. Each is one f32 subtraction: an
+    /// operation whose f64 result is rounded to f32 gives the f32 operation's bits, as
+    /// f64 carries more than 2·24 + 2 bits. No f64 round trip and no branch (test
+    /// `ref_weight_shortcuts_are_k_ref`).
+    #[inline(always)]
+    fn ref_weights(al: f32) -> [f32; 2] {
+        debug_assert!((0.0..1.0).contains(&al));
+        let w0 = 1.0 - al;
+        [w0, 1.0 - w0]
+    }
+    /// `d1` is −1 on [0, 1) and 1 on [−1, 0), where `al` and `al − 1` lie.
+    #[inline(always)]
+    fn ref_weights_d1(al: f32) -> [f32; 2] {
+        debug_assert!((0.0..1.0).contains(&al));
+        [-1.0, 1.0]
+    }
     #[inline(always)]
     fn weights(a: f64) -> [f32; 2] {
         [(1.0 - a) as f32, a as f32]
@@ -345,7 +362,7 @@ impl Kernel<4> for Bspln3 {
     /// (1, 2]: each needs one piece, the second's other piece only at |x| = 1 exactly
     /// (`al` = 0), where it is a constant. Half the arithmetic of `k_ref` four times
     /// (the far piece's division included), the same bits (test
-    /// `bspln3_ref_weights_are_k_ref`).
+    /// `ref_weight_shortcuts_are_k_ref`).
     #[inline(always)]
     fn ref_weights(al: f32) -> [f32; 4] {
         debug_assert!((0.0..1.0).contains(&al));
@@ -754,40 +771,50 @@ mod tests {
     }
 
     #[test]
-    fn bspln3_ref_weights_are_k_ref() {
-        // The per-position shortcut against the trait's definition (`k_ref` and `d1_ref`
-        // at al − (LO + i)), bit for bit: every float of [0, 1) within 2^16 ulps of its
-        // ends and of ½, every 97th float in between (about 11 M), so every exponent.
-        fn general<K: Kernel<4>>(al: f32) -> ([f32; 4], [f32; 4]) {
+    fn ref_weight_shortcuts_are_k_ref() {
+        // The per-position shortcuts (bspln3's and tent's) against the trait's definition
+        // (`k_ref` and `d1_ref` at al − (LO + i)), bit for bit: every float of [0, 1)
+        // within 2^16 ulps of its ends and of ½, every 97th float in between (about 11
+        // M), so every exponent.
+        fn general<K: Kernel<S>, const S: usize>(al: f32) -> ([f32; S], [f32; S]) {
             let x = |i: usize| al - (K::LO + i as i32) as f32;
             (
                 core::array::from_fn(|i| K::k_ref(x(i))),
                 core::array::from_fn(|i| K::d1_ref(x(i))),
             )
         }
-        let check = |al: f32| {
-            let (w, d) = general::<Bspln3>(al);
-            let bits = |a: [f32; 4]| a.map(f32::to_bits);
-            assert_eq!(bits(Bspln3::ref_weights(al)), bits(w), "weights at {al:e}");
+        fn check<K: Kernel<S>, const S: usize>(al: f32) {
+            let (w, d) = general::<K, S>(al);
+            let bits = |a: [f32; S]| a.map(f32::to_bits);
+            let name = K::NAME;
             assert_eq!(
-                bits(Bspln3::ref_weights_d1(al)),
-                bits(d),
-                "d1 weights at {al:e}"
+                bits(K::ref_weights(al)),
+                bits(w),
+                "{name:?} weights at {al:e}"
             );
+            assert_eq!(
+                bits(K::ref_weights_d1(al)),
+                bits(d),
+                "{name:?} d1 weights at {al:e}"
+            );
+        }
+        let both = |al: f32| {
+            check::<Bspln3, 4>(al);
+            check::<Tent, 2>(al);
         };
         let one = 1.0f32.to_bits();
         for d in 0..1u32 << 16 {
-            check(f32::from_bits(d));
-            check(f32::from_bits(one - 1 - d));
-            check(f32::from_bits(0.5f32.to_bits() - d));
-            check(f32::from_bits(0.5f32.to_bits() + d));
+            both(f32::from_bits(d));
+            both(f32::from_bits(one - 1 - d));
+            both(f32::from_bits(0.5f32.to_bits() - d));
+            both(f32::from_bits(0.5f32.to_bits() + d));
         }
         let mut b = 0u32;
         while b < one {
-            check(f32::from_bits(b));
+            both(f32::from_bits(b));
             b += 97;
         }
-        check(-0.0);
+        both(-0.0);
     }
     #[test]
     fn spec_13_3_values() {
