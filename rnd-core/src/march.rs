@@ -17,7 +17,7 @@ use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
 use crate::brick::{Own, Partial};
 use crate::classify::Quantity;
 use crate::convo::{ConvoSample, SecondOrder};
-use crate::light::blinn_phong;
+use crate::light::{blinn_phong, blinn_phong_lanes};
 use crate::probe::Probe;
 use crate::render::RenderSpec;
 use crate::skip::{SkipGrid, SkipKind, FINE, FINE_EMPTY};
@@ -348,12 +348,15 @@ impl Walk {
 }
 
 /// What the probe of a convolved sample may know besides its sums: the principal
-/// curvatures (used by curvature LUT axes only), and the LUT entry and opacity when the
-/// caller already has them (the same as the probe would find).
+/// curvatures (used by curvature LUT axes only), the LUT entry and opacity, the world
+/// gradient, and the lit colour (before depth cueing), when the caller already has them
+/// (the same bits as the probe would find).
 #[derive(Clone, Copy, Default)]
 struct Known {
     curv: [f64; 2],
     hit: Option<(usize, f32)>,
+    grad: Option<[f32; 3]>,
+    lit: Option<[f32; 3]>,
 }
 
 /// Samples placed for the convolution, in ray order (how many are waiting is a local
@@ -878,9 +881,27 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     nk += 1;
                 }
             }
-            if nk > 0 {
-                self.a.convolve::<true, N>(&b.n, &b.f, nk, &mut res);
+            if nk == 0 {
+                st.acc.add_transparent(m as u32);
+                return false;
             }
+            self.a.convolve::<true, N>(&b.n, &b.f, nk, &mut res);
+            // World gradients, and lit colours side by side.
+            let mut gw = [[0.0f32; 3]; N];
+            for j in 0..nk {
+                gw[j] = self.a.grad_world([res[j][1], res[j][2], res[j][3]]);
+            }
+            let lit = (sp.params.probe == Probe::RgbaLit).then(|| {
+                let (mut mat, mut g) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+                for j in 0..nk {
+                    let e = lut.entries()[hit[j].0];
+                    for c in 0..3 {
+                        (mat[c][j], g[c][j]) = (e[c], gw[j][c]);
+                    }
+                }
+                let (ph, to_eye) = (&sp.params.phong, A::to_eye(ray));
+                blinn_phong_lanes(sp.simd, ph, &sp.lights, &mat, &g, to_eye, nk)
+            });
             let mut j = 0;
             for i in 0..m {
                 if j < nk && keep[j] == i {
@@ -892,6 +913,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         Known {
                             curv: [0.0; 2],
                             hit: Some(hit[j]),
+                            grad: Some(gw[j]),
+                            lit: lit.map(|c| [c[0][j], c[1][j], c[2][j]]),
                         },
                     ) {
                         return true;
@@ -928,7 +951,18 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     .a
                     .second(b.n[i], b.f[i])
                     .curvatures(sp.params.curv_min_grad);
-                if self.take::<G>(ray, st, b.k[i], res[i], Known { curv, hit: None }) {
+                if self.take::<G>(
+                    ray,
+                    st,
+                    b.k[i],
+                    res[i],
+                    Known {
+                        curv,
+                        hit: None,
+                        grad: None,
+                        lit: None,
+                    },
+                ) {
                     return true;
                 }
             }
@@ -1018,10 +1052,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         r: [f32; 4],
         known: Known,
     ) -> bool {
-        let gw = if G {
-            self.a.grad_world([r[1], r[2], r[3]])
-        } else {
-            [0.0; 3]
+        let gw = match known.grad {
+            Some(g) => g,
+            None if G => self.a.grad_world([r[1], r[2], r[3]]),
+            None => [0.0; 3],
         };
         let mut pr = [0.0f32; MAX_CHANNELS];
         let counted = self.probe_inside(
@@ -1104,7 +1138,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         ray: &A::Ray,
         k: u32,
         vg: [f32; 4],
-        Known { curv, hit }: Known,
+        Known { curv, hit, lit, .. }: Known,
         memo: &mut Memo,
         out: &mut [f32; MAX_CHANNELS],
     ) -> bool {
@@ -1139,7 +1173,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 let mut rgb = [e[0], e[1], e[2]];
                 // A transparent sample is not lit (it adds nothing under `over`).
                 if a != 0.0 && p.probe == Probe::RgbaLit {
-                    rgb = blinn_phong(&p.phong, &sp.lights, rgb, gw, A::to_eye(ray));
+                    rgb = match lit {
+                        Some(c) => c,
+                        None => blinn_phong(&p.phong, &sp.lights, rgb, gw, A::to_eye(ray)),
+                    };
                     if sp.depth_cue {
                         let tau = self.a.tau(ray, k);
                         for c in 0..3 {

@@ -606,6 +606,74 @@ pub fn powf(x: f32, y: f32) -> f32 {
     }
 }
 
+/// [`powf`] of the first `n` lanes of `x` to one power `y`, the same bits (0 in the
+/// others): where `y` is whole, the repeated squaring of all lanes side by side (f64
+/// lanes the compiler keeps in vector registers), and [`powf`] itself for the lanes
+/// that [`powf_whole`] would not settle.
+#[inline(always)]
+pub(crate) fn powf_lanes<const N: usize>(x: &[f32; N], y: f32, n: usize) -> [f32; N] {
+    let mut out = [0.0f32; N];
+    let n = n.min(N);
+    let Some(e) = whole_exp(y) else {
+        for l in 0..n {
+            out[l] = powf(x[l], y);
+        }
+        return out;
+    };
+    let (mut r, mut b) = ([1.0f64; N], [0.0f64; N]);
+    for l in 0..N {
+        b[l] = f64::from(x[l]);
+    }
+    squarings(e, &mut r, &mut b);
+    for l in 0..n {
+        let xl = x[l];
+        let fast = if xl > 0.0 && xl <= 1.0 {
+            settle(r[l], y)
+        } else {
+            None
+        };
+        out[l] = fast.unwrap_or_else(|| powf(xl, y));
+    }
+    out
+}
+
+/// `y` as a whole exponent in [1, 2^16], the range [`powf_whole`] takes.
+#[inline(always)]
+fn whole_exp(y: f32) -> Option<u32> {
+    ((1.0..=65_536.0).contains(&y) && y == math::floorf(y)).then_some(y as u32)
+}
+
+/// `r·b^n` of every lane, by repeated squaring in f64 (`b` squared as it goes).
+#[inline(always)]
+fn squarings<const N: usize>(mut n: u32, r: &mut [f64; N], b: &mut [f64; N]) {
+    loop {
+        if n & 1 == 1 {
+            for l in 0..N {
+                r[l] *= b[l];
+            }
+        }
+        n >>= 1;
+        if n == 0 {
+            break;
+        }
+        for l in 0..N {
+            b[l] *= b[l];
+        }
+    }
+}
+
+/// The f32 of a power `r` found by repeated squaring to whole exponent `y`, when every
+/// value within its error bound rounds to it (see [`powf_whole`]); else None.
+#[inline(always)]
+fn settle(r: f64, y: f32) -> Option<f32> {
+    if r < 1e-290 {
+        return None;
+    }
+    let e = (y as f64 + 64.0) * f64::EPSILON;
+    let (lo, hi) = ((r * (1.0 - e)) as f32, (r * (1.0 + e)) as f32);
+    (lo == hi).then_some(lo)
+}
+
 /// [`powf`] without the library `pow`, where that is provably the same f32: for a whole
 /// exponent y in [1, 2^16] and x in (0, 1] (specular powers), x^y by repeated squaring
 /// in f64 is within (y + 33)·2^-53 of the exact power (each squaring doubles the
@@ -615,26 +683,13 @@ pub fn powf(x: f32, y: f32) -> f32 {
 /// to the f64 underflow) None.
 #[inline]
 fn powf_whole(x: f32, y: f32) -> Option<f32> {
-    if !(x > 0.0 && x <= 1.0 && (1.0..=65_536.0).contains(&y) && y == math::floorf(y)) {
+    let n = whole_exp(y)?;
+    if !(x > 0.0 && x <= 1.0) {
         return None;
     }
-    let (mut n, mut b, mut r) = (y as u32, x as f64, 1.0f64);
-    loop {
-        if n & 1 == 1 {
-            r *= b;
-        }
-        n >>= 1;
-        if n == 0 {
-            break;
-        }
-        b *= b;
-    }
-    if r < 1e-290 {
-        return None;
-    }
-    let e = (y as f64 + 64.0) * f64::EPSILON;
-    let (lo, hi) = ((r * (1.0 - e)) as f32, (r * (1.0 + e)) as f32);
-    (lo == hi).then_some(lo)
+    let (mut r, mut b) = ([1.0f64], [x as f64]);
+    squarings(n, &mut r, &mut b);
+    settle(r[0], y)
 }
 
 /// Opacity `a` clamped to [0, 1] and corrected for `ex` unit steps: 1 − (1 − a)^ex.
@@ -820,6 +875,40 @@ mod lane_tests {
             let simd = Simd::at_most(level);
             all_kernels(&f, sz, simd);
             all_kernels(&s, sz, simd);
+        }
+    }
+
+    /// `powf_lanes` is `powf` lane by lane: bases in (0, 1] and outside it (zeros of both
+    /// signs, NaN, infinities, negatives, above 1), whole and other exponents.
+    #[test]
+    fn power_lanes_are_powf() {
+        let mut rng = Lcg(7);
+        let odd = [
+            0.0f32,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            -0.5,
+            1.5,
+            1.0,
+            1e-45,
+            f32::MIN_POSITIVE,
+        ];
+        for y in [
+            1.0f32, 2.0, 3.0, 7.0, 150.0, 151.0, 1000.0, 65_536.0, 70_000.0, 0.5, 0.0, -2.0,
+        ] {
+            for round in 0..200 {
+                let x: [f32; 16] = core::array::from_fn(|l| match (round + l) % 4 {
+                    0 => odd[(round * 16 + l) % odd.len()],
+                    1 => 1.0 - rng.next() * 1e-3,
+                    _ => rng.next(),
+                });
+                let n = 16 - round % 3;
+                let got = powf_lanes(&x, y, n);
+                for l in 0..n {
+                    assert_eq!(got[l].to_bits(), powf(x[l], y).to_bits(), "{:e}^{y}", x[l]);
+                }
+            }
         }
     }
 
