@@ -94,6 +94,14 @@ pub trait Kernel<const S: usize>: Copy + Default + Send + Sync + 'static {
     fn ref_weights_d1(al: f32) -> [f32; S] {
         core::array::from_fn(|i| Self::d1_ref(al - (Self::LO + i as i32) as f32))
     }
+    /// [`Kernel::ref_weights`] (`D1` false) or [`Kernel::ref_weights_d1`] (true) of
+    /// every lane, `[i][l]` weight i of lane l, for a kernel whose per-lane loop the
+    /// compiler does not vectorize (tent's two interleaved weights): loops it does, the
+    /// same bits. None (the default): the lane code calls `ref_weights` lane by lane.
+    #[inline(always)]
+    fn ref_weights_lanes<const D1: bool, const L: usize>(_al: &[f32; L]) -> Option<[[f32; L]; S]> {
+        None
+    }
     /// Integer base index and fractional offset for index-space coordinate `x`
     /// (`floor(x)` for even support, `floor(x + 0.5)` for odd).
     #[inline(always)]
@@ -252,6 +260,21 @@ impl Kernel<2> for Tent {
     fn ref_weights_d1(al: f32) -> [f32; 2] {
         debug_assert!((0.0..1.0).contains(&al));
         [-1.0, 1.0]
+    }
+    /// One loop per weight.
+    #[inline(always)]
+    fn ref_weights_lanes<const D1: bool, const L: usize>(al: &[f32; L]) -> Option<[[f32; L]; 2]> {
+        if D1 {
+            return Some([[-1.0; L], [1.0; L]]);
+        }
+        let mut w = [[0.0f32; L]; 2];
+        for l in 0..L {
+            w[0][l] = 1.0 - al[l];
+        }
+        for l in 0..L {
+            w[1][l] = 1.0 - w[0][l];
+        }
+        Some(w)
     }
     #[inline(always)]
     fn weights(a: f64) -> [f32; 2] {

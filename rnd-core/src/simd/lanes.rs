@@ -3,10 +3,9 @@
 //! [`crate::refarith::convolve`] for its sample (so the same bits), and the lanes' chains
 //! of S³ dependent additions are independent, so they fill the vector registers.
 
-use core::mem::MaybeUninit;
-
 use crate::kernel::Kernel;
 use crate::voxel::Voxel;
+use core::mem::MaybeUninit;
 
 use super::Simd;
 
@@ -104,8 +103,9 @@ type LaneWeightsUninit<const S: usize> = [[[MaybeUninit<f32>; LANES]; S]; 3];
 
 /// `f` of the batch's checked supports and each lane's weights per axis and support
 /// index (`w`), and derivative weights (`dw`; with `G` only, else `w` again), as
-/// [`crate::refarith::convolve`] computes them ([`Kernel::ref_weights`]). The arrays
-/// are filled in place, never zeroed first, and lent to `f` (no copies).
+/// [`crate::refarith::convolve`] computes them ([`Kernel::ref_weights`], or the
+/// kernel's [`Kernel::ref_weights_lanes`]). The arrays are filled in place, never
+/// zeroed first, and lent to `f` (no copies).
 #[inline(always)]
 fn with_weights<V: Voxel, K: Kernel<S>, const S: usize, const G: bool, R>(
     batch: LaneBatch<'_, V>,
@@ -115,20 +115,12 @@ fn with_weights<V: Voxel, K: Kernel<S>, const S: usize, const G: bool, R>(
     let mut w: LaneWeightsUninit<S> = [[[MaybeUninit::uninit(); LANES]; S]; 3];
     let mut dw: LaneWeightsUninit<S> = [[[MaybeUninit::uninit(); LANES]; S]; 3];
     for a in 0..3 {
-        for l in 0..LANES {
-            let ws = K::ref_weights(al[a][l]);
-            for i in 0..S {
-                w[a][i][l].write(ws[i]);
-            }
-            if G {
-                let ds = K::ref_weights_d1(al[a][l]);
-                for i in 0..S {
-                    dw[a][i][l].write(ds[i]);
-                }
-            }
+        fill::<K, S, false>(&al[a], &mut w[a]);
+        if G {
+            fill::<K, S, true>(&al[a], &mut dw[a]);
         }
     }
-    // SAFETY: the loops above wrote every element of `w` (and of `dw` with `G`), and
+    // SAFETY: `fill` wrote every element of `w` (and of `dw` with `G`), and
     // `MaybeUninit<f32>` has the layout of `f32`, so the arrays are their f32 arrays.
     let (w, dw) = unsafe {
         let w = &*(&w as *const LaneWeightsUninit<S> as *const LaneWeights<S>);
@@ -140,6 +132,33 @@ fn with_weights<V: Voxel, K: Kernel<S>, const S: usize, const G: bool, R>(
         (w, dw)
     };
     f(&sup, w, dw)
+}
+
+/// Writes every element of `w`: the weights (`D1`: derivative weights) of each lane's
+/// offset `al`.
+#[inline(always)]
+fn fill<K: Kernel<S>, const S: usize, const D1: bool>(
+    al: &[f32; LANES],
+    w: &mut [[MaybeUninit<f32>; LANES]; S],
+) {
+    if let Some(ws) = K::ref_weights_lanes::<D1, LANES>(al) {
+        for i in 0..S {
+            for l in 0..LANES {
+                w[i][l].write(ws[i][l]);
+            }
+        }
+        return;
+    }
+    for l in 0..LANES {
+        let ws = if D1 {
+            K::ref_weights_d1(al[l])
+        } else {
+            K::ref_weights(al[l])
+        };
+        for i in 0..S {
+            w[i][l].write(ws[i]);
+        }
+    }
 }
 
 /// Lane-major sums into per-sample results (the value only, without `G`).

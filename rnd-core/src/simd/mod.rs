@@ -397,6 +397,64 @@ mod tests {
     use super::*;
     use alloc::vec;
 
+    /// `Kernel::ref_weights_lanes` is `ref_weights` (and `ref_weights_d1`) lane by lane,
+    /// for every kernel that has it: offsets across [0, 1) (odd supports: [−½, ½)), their ends, ½
+    /// and −0 included.
+    #[test]
+    fn lane_weights_are_ref_weights() {
+        use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Kernel, Tent};
+        fn get<K: Kernel<S>, const S: usize, const D1: bool>(
+            al: &[f32; 16],
+        ) -> Option<[[u32; 16]; S]> {
+            K::ref_weights_lanes::<D1, 16>(al).map(|w| w.map(|r| r.map(f32::to_bits)))
+        }
+        fn check<K: Kernel<S>, const S: usize>(al: [f32; 16]) {
+            let al = if S % 2 == 1 { al.map(|a| a - 0.5) } else { al };
+            let (Some(w), Some(d)) = (get::<K, S, false>(&al), get::<K, S, true>(&al)) else {
+                // (Tent has the lane forms.)
+                assert_ne!(K::NAME, crate::kernel::KernelName::Tent);
+                return;
+            };
+            for l in 0..16 {
+                let (ws, ds) = (K::ref_weights(al[l]), K::ref_weights_d1(al[l]));
+                for i in 0..S {
+                    let name = K::NAME;
+                    assert_eq!(
+                        w[i][l],
+                        ws[i].to_bits(),
+                        "{name:?} weight {i} at {:e}",
+                        al[l]
+                    );
+                    assert_eq!(d[i][l], ds[i].to_bits(), "{name:?} d1 {i} at {:e}", al[l]);
+                }
+            }
+        }
+        let one = 1.0f32.to_bits();
+        let mut als = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            f32::from_bits(one - 1),
+            f32::from_bits(1),
+        ];
+        let mut x = 0x9e37_79b9u32;
+        for _ in 0..4000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            als.push(f32::from_bits(x % one));
+        }
+        for c in als.chunks_exact(16) {
+            let al: [f32; 16] = c.try_into().unwrap();
+            check::<BoxK, 1>(al);
+            check::<Tent, 2>(al);
+            check::<Bspln2, 3>(al);
+            check::<Bspln3, 4>(al);
+            check::<Ctmr, 4>(al);
+            check::<C4Hexic, 6>(al);
+        }
+    }
+
     #[test]
     fn floor_lanes_is_floorf_at_every_level() {
         // Integers and their neighbours, halves, signed zeros, the magnitudes near 2^23,
