@@ -3,9 +3,10 @@
 //! [`crate::refarith::convolve`] for its sample (so the same bits), and the lanes' chains
 //! of S³ dependent additions are independent, so they fill the vector registers.
 
+use core::mem::MaybeUninit;
+
 use crate::kernel::Kernel;
 use crate::voxel::Voxel;
-use core::mem::MaybeUninit;
 
 use super::Simd;
 
