@@ -166,8 +166,7 @@ pub fn blinn_phong(
 /// `blinn_phong` gives it (lanes from `n` on hold no colour). The same operations in
 /// the same order, laid out sample by sample across lanes (square roots by vector
 /// instructions, specular powers by [`crate::refarith::powf_lanes`]), out of line and
-/// compiled for the widest level `simd` allows. (Plain loops over lanes:
-/// `array::from_fn` and `map` may stay out of line, compiled without the vector level.)
+/// compiled for the widest level `simd` allows.
 #[inline(never)]
 pub(crate) fn blinn_phong_lanes<const N: usize>(
     simd: crate::simd::Simd,
@@ -180,71 +179,80 @@ pub(crate) fn blinn_phong_lanes<const N: usize>(
 ) -> [[f32; N]; 3] {
     crate::simd::wide(simd, {
         #[inline(always)]
-        || {
-            let mut ambient = [[0.0f32; N]; 3];
-            for i in 0..3 {
-                for l in 0..N {
-                    ambient[i][l] = ph.ka * m[i][l];
-                }
-            }
-            if lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) {
-                return ambient;
-            }
-            let mut gl = [0.0f32; N];
-            for l in 0..N {
-                gl[l] = g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l];
-            }
-            crate::simd::sqrt_lanes(simd, &mut gl);
-            let mut nrm = [[0.0f32; N]; 3];
-            for l in 0..N {
-                let s = 1.0 / gl[l];
-                for a in 0..3 {
-                    nrm[a][l] = s * -g[a][l];
-                }
-            }
-            let mut out = ambient;
-            let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-            // max(n·d, 0) of every lane.
-            let along = |d: [f32; 3]| {
-                let mut x = [0.0f32; N];
-                for l in 0..N {
-                    x[l] = (nrm[0][l] * d[0] + nrm[1][l] * d[1] + nrm[2][l] * d[2]).max(0.0);
-                }
-                x
-            };
-            for &(c, lt) in lights {
-                let ndl = along(lt);
-                // The half vector is the ray's, the same for every sample.
-                let h = [lt[0] + to_eye[0], lt[1] + to_eye[1], lt[2] + to_eye[2]];
-                let hl = math::sqrtf(dot(h, h));
-                let mut sp = [0.0f32; N];
-                if hl > 0.0 {
-                    let s = 1.0 / hl;
-                    sp = crate::refarith::powf_lanes(
-                        &along([s * h[0], s * h[1], s * h[2]]),
-                        ph.p,
-                        n,
-                    );
-                    for x in sp.iter_mut() {
-                        *x *= ph.ks;
-                    }
-                }
-                for i in 0..3 {
-                    for l in 0..N {
-                        out[i][l] += c[i] * (ph.kd * ndl[l] * m[i][l] + sp[l]);
-                    }
-                }
-            }
-            // Ambient alone where the gradient is zero or not finite.
-            for l in 0..N {
-                let lit = gl[l] != 0.0 && gl[l].is_finite();
-                for i in 0..3 {
-                    out[i][l] = if lit { out[i][l] } else { ambient[i][l] };
-                }
-            }
-            out
-        }
+        || shade_lanes(simd, ph, lights, m, g, to_eye, n)
     })
+}
+
+/// The body of [`blinn_phong_lanes`]. (Plain loops over lanes: `array::from_fn` and
+/// `map` may stay out of line, compiled without the vector level.)
+#[inline(always)]
+fn shade_lanes<const N: usize>(
+    simd: crate::simd::Simd,
+    ph: &Phong,
+    lights: &[([f32; 3], [f32; 3])],
+    m: &[[f32; N]; 3],
+    g: &[[f32; N]; 3],
+    to_eye: [f32; 3],
+    n: usize,
+) -> [[f32; N]; 3] {
+    let mut ambient = [[0.0f32; N]; 3];
+    for i in 0..3 {
+        for l in 0..N {
+            ambient[i][l] = ph.ka * m[i][l];
+        }
+    }
+    if lights.is_empty() || (ph.kd == 0.0 && ph.ks == 0.0) {
+        return ambient;
+    }
+    let mut gl = [0.0f32; N];
+    for l in 0..N {
+        gl[l] = g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l];
+    }
+    crate::simd::sqrt_lanes(simd, &mut gl);
+    let mut nrm = [[0.0f32; N]; 3];
+    for l in 0..N {
+        let s = 1.0 / gl[l];
+        for a in 0..3 {
+            nrm[a][l] = s * -g[a][l];
+        }
+    }
+    let mut out = ambient;
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    // max(n·d, 0) of every lane.
+    let along = |d: [f32; 3]| {
+        let mut x = [0.0f32; N];
+        for l in 0..N {
+            x[l] = (nrm[0][l] * d[0] + nrm[1][l] * d[1] + nrm[2][l] * d[2]).max(0.0);
+        }
+        x
+    };
+    for &(c, lt) in lights {
+        let ndl = along(lt);
+        // The half vector is the ray's, the same for every sample.
+        let h = [lt[0] + to_eye[0], lt[1] + to_eye[1], lt[2] + to_eye[2]];
+        let hl = math::sqrtf(dot(h, h));
+        let mut sp = [0.0f32; N];
+        if hl > 0.0 {
+            let s = 1.0 / hl;
+            sp = crate::refarith::powf_lanes(&along([s * h[0], s * h[1], s * h[2]]), ph.p, n);
+            for x in sp.iter_mut() {
+                *x *= ph.ks;
+            }
+        }
+        for i in 0..3 {
+            for l in 0..N {
+                out[i][l] += c[i] * (ph.kd * ndl[l] * m[i][l] + sp[l]);
+            }
+        }
+    }
+    // Ambient alone where the gradient is zero or not finite.
+    for l in 0..N {
+        let lit = gl[l] != 0.0 && gl[l].is_finite();
+        for i in 0..3 {
+            out[i][l] = if lit { out[i][l] } else { ambient[i][l] };
+        }
+    }
+    out
 }
 
 #[cfg(test)]
