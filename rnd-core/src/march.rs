@@ -472,13 +472,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         // Under `over` with the opacity grid, untraced and not a brick's, the walk from
         // the samples that the exact line shows may be inside (no span needed).
+        // (The kind first: a `max` grid's rays take their line from the span.)
         if let (Some(g), false, true, None) = (
-            self.skip,
+            self.skip.filter(|g| g.kind() == SkipKind::Opacity),
             st.trace.is_some(),
             N > 1 && !everywhere,
             &self.own,
         ) {
-            if let (SkipKind::Opacity, Some(l)) = (g.kind(), self.a.line(&ray, kend)) {
+            if let Some(l) = self.a.line(&ray, kend) {
                 let jl = self.jumps(&l, kend);
                 if let Some(ks) = jl.may_be_inside(kend) {
                     // Outside its window a sample is outside or transparent, which only
