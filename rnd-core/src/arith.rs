@@ -606,14 +606,21 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
                 };
             }
             crate::simd::floor_lanes(self.simd, &mut base);
+            // (Into arrays of this axis first, stored whole after: written straight
+            // into `out`, the loop vectorized lane by lane with shuffles, ~2.5 times
+            // the instructions.)
+            let (mut first, mut frac, mut inside) = ([0.0f32; N], [0.0f32; N], [0u32; N]);
             for l in 0..N {
-                let (x, base) = (x[l], base[l]);
                 // (base + (LO − origin) in one add: the same value as the two adds
                 // (base + LO) − origin wherever the support can be inside, |base| < 2^24.)
-                let first = base + lo_off;
-                out.inside[l] &= u32::from((first >= 0.0) & (first + (S as f32 - 1.0) <= top));
-                out.first[a][l] = first;
-                out.frac[a][l] = x - base;
+                first[l] = base[l] + lo_off;
+                frac[l] = x[l] - base[l];
+                inside[l] = u32::from((first[l] >= 0.0) & (first[l] + (S as f32 - 1.0) <= top));
+            }
+            out.first[a] = first;
+            out.frac[a] = frac;
+            for l in 0..N {
+                out.inside[l] &= inside[l];
             }
         }
         for l in 0..N {

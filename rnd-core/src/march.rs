@@ -570,12 +570,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 // unconvolved.
                 if let (Some(g), Some(l)) = (below, &line) {
                     let j = k + N as u32 - 1;
-                    if let Some(bd) = self.run_bound(g, l, k, j) {
-                        if (bd < st.floor || st.acc.below_max(bd)) && !self.a.past(&ray, j) {
-                            st.unseen += N as u32;
-                            k += N as u32;
-                            continue;
-                        }
+                    let under = |b: f32| b < st.floor || st.acc.below_max(b);
+                    if self.run_under(g, l, k, j, under) && !self.a.past(&ray, j) {
+                        st.unseen += N as u32;
+                        k += N as u32;
+                        continue;
                     }
                 }
                 let mut xs = [0.0f32; N];
@@ -1385,10 +1384,19 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         Some((lo, hi))
     }
 
-    /// Under `max`: the grid's bound over samples k to j (see [`March::run_box`]).
+    /// Under `max`: whether `under` holds for the grid's bounds of every block that
+    /// samples k to j can reach (see [`March::run_box`]; false when that is not known).
     #[inline(always)]
-    fn run_bound(&self, g: &SkipGrid, jl: &Jumps, k: u32, j: u32) -> Option<f32> {
-        self.run_box(jl, k, j).map(|(lo, hi)| g.bound_over(lo, hi))
+    fn run_under(
+        &self,
+        g: &SkipGrid,
+        jl: &Jumps,
+        k: u32,
+        j: u32,
+        under: impl FnMut(f32) -> bool,
+    ) -> bool {
+        self.run_box(jl, k, j)
+            .is_some_and(|(lo, hi)| g.every_bound(lo, hi, under))
     }
 
     /// The last sample in [k, k1) up to which every sample provably has its support
@@ -1596,7 +1604,8 @@ impl<A: Arith> March<'_, '_, A> {
 
     /// For tests: every run of `n` samples of the ray through (hi, vi) that
     /// [`March::run_box`] boxes has each sample inside, its support start in the box and
-    /// its block's bound at most the box's (as [`March::run_bound`] gives it; asserted);
+    /// its block's bound at most the box's (as [`SkipGrid::bound_over`] gives it, which
+    /// [`March::run_under`] tests; asserted);
     /// the number of runs boxed.
     pub(crate) fn check_run_bounds(&self, hi: u32, vi: u32, n: u32) -> usize {
         let (ray, kend) = (self.a.ray(hi, vi), self.spec.kmax + 1);

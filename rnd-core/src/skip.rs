@@ -926,19 +926,42 @@ impl SkipGrid {
 
     /// The upper bound of [`SkipGrid::bound_at`] over every support start in the box
     /// from `lo` to `hi` (`lo ≤ hi` on each axis, all inside the volume).
-    #[inline(always)]
     pub fn bound_over(&self, lo: [i64; 3], hi: [i64; 3]) -> f32 {
-        let (a, b) = (lo.map(|x| x as usize / F), hi.map(|x| x as usize / F));
         let mut m = f32::NEG_INFINITY;
+        self.every_bound(lo, hi, |b| {
+            m = m.max(b);
+            true
+        });
+        m
+    }
+
+    /// Whether `under` holds for [`SkipGrid::bound_at`] of every support start in the
+    /// box from `lo` to `hi` (as [`SkipGrid::bound_over`]), asked block by block until
+    /// it fails: for a test that holds for any bound below one it holds for, the same
+    /// answer as `under(bound_over(lo, hi))`, most often sooner. False for a box
+    /// beyond the grid.
+    #[inline(always)]
+    pub fn every_bound(
+        &self,
+        lo: [i64; 3],
+        hi: [i64; 3],
+        mut under: impl FnMut(f32) -> bool,
+    ) -> bool {
+        let (a, b) = (lo.map(|x| x as usize / F), hi.map(|x| x as usize / F));
         for z in a[2]..=b[2] {
             for y in a[1]..=b[1] {
                 let row = self.nf[0] * (y + self.nf[1] * z);
-                for x in a[0]..=b[0] {
-                    m = m.max(self.hi[row + x]);
+                let Some(bounds) = self.hi.get(row + a[0]..=row + b[0]) else {
+                    return false;
+                };
+                for &x in bounds {
+                    if !under(x) {
+                        return false;
+                    }
                 }
             }
         }
-        m
+        true
     }
 
     /// The upper bound of [`SkipGrid::bound_at`] over the whole coarse block of `lo`.
@@ -1188,6 +1211,53 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `bound_over` is the largest fine bound of the box's blocks (by a direct loop over
+    /// the grid), and `every_bound` with a threshold test gives that test of it, for
+    /// boxes of every shape up to whole volume (an infinite bound, from a NaN voxel,
+    /// included).
+    #[test]
+    fn box_bounds_visit_every_block() {
+        use crate::affine::Affine4;
+        use crate::kernel::KernelName;
+        use crate::skip::{SkipKind, SkipPlan, F};
+        use crate::volume::Volume;
+        let sizes = [23, 19, 30];
+        let mut data: Vec<f32> = (0..sizes[0] * sizes[1] * sizes[2])
+            .map(|i| ((i * 7919) % 211) as f32 / 7.0)
+            .collect();
+        data[3000] = f32::NAN;
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        let g = SkipPlan::for_max(&vol, KernelName::Tent, SkipKind::MaxValue)
+            .unwrap()
+            .build(&vol);
+        let last = sizes.map(|n| n as i64 - 2);
+        let mut boxes = 0;
+        for (x0, y0, z0) in [(0, 0, 0), (3, 5, 9), (8, 0, 17), (21, 17, 28)] {
+            for (dx, dy, dz) in [(0, 0, 0), (5, 0, 2), (1, 9, 0), (40, 40, 40)] {
+                let lo = [x0, y0, z0];
+                let hi = [x0 + dx, y0 + dy, z0 + dz];
+                let hi = [0, 1, 2].map(|a| hi[a].min(last[a]));
+                let mut want = f32::NEG_INFINITY;
+                for z in lo[2] as usize / F..=hi[2] as usize / F {
+                    for y in lo[1] as usize / F..=hi[1] as usize / F {
+                        for x in lo[0] as usize / F..=hi[0] as usize / F {
+                            want = want.max(g.hi[x + g.nf[0] * (y + g.nf[1] * z)]);
+                        }
+                    }
+                }
+                let b = g.bound_over(lo, hi);
+                assert_eq!(b.to_bits(), want.to_bits(), "{lo:?} {hi:?}");
+                for t in [0.0, 10.0, 20.0, 29.9, 30.0, 31.0, f32::INFINITY] {
+                    assert_eq!(g.every_bound(lo, hi, |x| x < t), b < t, "{lo:?} {hi:?} {t}");
+                }
+                boxes += 1;
+            }
+        }
+        assert_eq!(boxes, 16);
+        assert_eq!(g.bound_over([0; 3], last), f32::INFINITY);
     }
 
     /// The `max` bounds hold: every convolution (value, world gradient magnitude) whose
