@@ -925,21 +925,26 @@ impl SkipGrid {
     }
 
     /// The upper bound of [`SkipGrid::bound_at`] over every support start in the box
-    /// from `lo` to `hi` (`lo ≤ hi` on each axis, all inside the volume).
+    /// from `lo` to `hi` (`lo ≤ hi` on each axis, all inside the volume; +∞ for a box
+    /// beyond the grid).
     pub fn bound_over(&self, lo: [i64; 3], hi: [i64; 3]) -> f32 {
         let mut m = f32::NEG_INFINITY;
-        self.every_bound(lo, hi, |b| {
+        let inside = self.every_bound(lo, hi, |b| {
             m = m.max(b);
             true
         });
-        m
+        if inside {
+            m
+        } else {
+            f32::INFINITY
+        }
     }
 
     /// Whether `under` holds for [`SkipGrid::bound_at`] of every support start in the
     /// box from `lo` to `hi` (as [`SkipGrid::bound_over`]), asked block by block until
     /// it fails: for a test that holds for any bound below one it holds for, the same
     /// answer as `under(bound_over(lo, hi))`, most often sooner. False for a box
-    /// beyond the grid.
+    /// beyond the grid (or with `lo > hi` on an axis).
     #[inline(always)]
     pub fn every_bound(
         &self,
@@ -948,6 +953,10 @@ impl SkipGrid {
         mut under: impl FnMut(f32) -> bool,
     ) -> bool {
         let (a, b) = (lo.map(|x| x as usize / F), hi.map(|x| x as usize / F));
+        // (A negative start is a large usize: beyond the grid too.)
+        if (0..3).any(|i| a[i] > b[i] || b[i] >= self.nf[i]) {
+            return false;
+        }
         for z in a[2]..=b[2] {
             for y in a[1]..=b[1] {
                 let row = self.nf[0] * (y + self.nf[1] * z);
@@ -1258,6 +1267,15 @@ mod tests {
         }
         assert_eq!(boxes, 16);
         assert_eq!(g.bound_over([0; 3], last), f32::INFINITY);
+        // Beyond the grid: no bound, nothing skipped (and no panic).
+        for (lo, hi) in [
+            ([0, 0, 0], [200, 0, 0]),
+            ([-5, 0, 0], [0, 0, 0]),
+            ([0; 3], [0, 0, 99]),
+        ] {
+            assert_eq!(g.bound_over(lo, hi), f32::INFINITY, "{lo:?} {hi:?}");
+            assert!(!g.every_bound(lo, hi, |_| true), "{lo:?} {hi:?}");
+        }
     }
 
     /// The `max` bounds hold: every convolution (value, world gradient magnitude) whose
