@@ -954,7 +954,14 @@ impl SkipGrid {
     ) -> bool {
         let (a, b) = (lo.map(|x| x as usize / F), hi.map(|x| x as usize / F));
         // (A negative start is a large usize: beyond the grid too.)
-        if (0..3).any(|i| a[i] > b[i] || b[i] >= self.nf[i]) {
+        let nf = self.nf;
+        if (a[0] > b[0])
+            | (a[1] > b[1])
+            | (a[2] > b[2])
+            | (b[0] >= nf[0])
+            | (b[1] >= nf[1])
+            | (b[2] >= nf[2])
+        {
             return false;
         }
         for z in a[2]..=b[2] {
