@@ -18,8 +18,10 @@ use rnd_core::Param;
 
 use crate::{Error, ErrorKind};
 
-/// Rows a thread takes at a time from its own run (see `bands`).
-const BAND: usize = 4;
+/// Rows a thread takes at a time from its own run (see `bands`): the render casts them
+/// strip by strip of columns (`RenderSpec::render_rows`), so that rays beside each other
+/// in both directions run one after another.
+const BAND: usize = 8;
 
 /// The number of threads the system offers this process (at least 1).
 pub fn default_threads() -> usize {
