@@ -211,7 +211,7 @@ fn lut_builder_is_generate() {
     }
 }
 
-/// Progress reaches every row once, in bands of up to four rows; a set flag cancels (kind Cancelled) and the same
+/// Progress reaches every row once, in bands of up to eight rows; a set flag cancels (kind Cancelled) and the same
 /// render without it gives the image `render` gives, for any thread count.
 #[test]
 fn progress_and_cancellation() {
@@ -230,13 +230,13 @@ fn progress_and_cancellation() {
         let img = render_with(&spec, vol.view().into(), KernelName::Bspln3, threads, &c).unwrap();
         assert_eq!(img, plain);
         assert_eq!(last.load(Ordering::Relaxed), 37);
-        // One report per band of rows: four at a time from a thread's own run, single
-        // rows taken from another's (one thread takes all in fours).
+        // One report per band of rows: eight at a time from a thread's own run, single
+        // rows taken from another's (one thread takes all in eights).
         let reports = rows.load(Ordering::Relaxed);
         if threads == 1 {
-            assert_eq!(reports, 37usize.div_ceil(4));
+            assert_eq!(reports, 37usize.div_ceil(8));
         } else {
-            assert!((37usize.div_ceil(4)..=37).contains(&reports), "{reports}");
+            assert!((37usize.div_ceil(8)..=37).contains(&reports), "{reports}");
         }
         // Cancelled from the first progress report on: the render stops with an error.
         let stop = AtomicBool::new(false);
