@@ -1135,16 +1135,18 @@ const STRIP: usize = 16;
 
 /// The pixels of image rows `rows` of an image `w` pixels wide, as (row in `rows`, image
 /// row, column), in the order they are cast: strip by strip of [`STRIP`] columns, each
-/// strip row by row. The rays of a strip of a few rows read much the same voxels, so
+/// strip row by row, every other row right to left (so that each ray follows a
+/// neighbour: under `max` a ray starts from where the last found its maximum). The rays of a strip of a few rows read much the same voxels, so
 /// these stay in the core's second-level cache between them, where whole image rows
 /// of a large volume would not (cachegrind, a 264 × 256 × 256 float volume, 256² rays
 /// along its second axis, 8 rows at a time: 1.8 M misses of a 512 KiB cache instead
 /// of 4.6 M). The order changes no bit of the image.
 fn pixels(rows: core::ops::Range<u32>, w: usize) -> impl Iterator<Item = (usize, u32, usize)> {
     (0..w).step_by(STRIP).flat_map(move |x0| {
-        rows.clone()
-            .enumerate()
-            .flat_map(move |(r, vi)| (x0..(x0 + STRIP).min(w)).map(move |hi| (r, vi, hi)))
+        rows.clone().enumerate().flat_map(move |(r, vi)| {
+            let (n, back) = ((x0 + STRIP).min(w) - x0, r % 2 == 1);
+            (0..n).map(move |i| (r, vi, x0 + if back { n - 1 - i } else { i }))
+        })
     })
 }
 
@@ -1171,9 +1173,19 @@ mod tests {
                 assert_eq!(vi, rows.start + r as u32);
                 assert!(hi < w && !core::mem::replace(&mut seen[r * w + hi], true));
             }
-            // Strip by strip: a strip's pixels before any of the next strip's.
-            let strips: Vec<usize> = got.iter().map(|&(_, _, hi)| hi / STRIP).collect();
-            assert!(strips.windows(2).all(|s| s[0] <= s[1]), "{rows:?} {w}");
+            // Strip by strip (a strip's pixels before any of the next strip's), and
+            // within a strip each pixel beside the one before.
+            for p in got.windows(2) {
+                let ((r0, _, h0), (r1, _, h1)) = (p[0], p[1]);
+                if h0 / STRIP == h1 / STRIP {
+                    assert!(
+                        r0.abs_diff(r1) + h0.abs_diff(h1) == 1,
+                        "{rows:?} {w}: {p:?}"
+                    );
+                } else {
+                    assert!(h0 / STRIP < h1 / STRIP, "{rows:?} {w}: {p:?}");
+                }
+            }
         }
     }
 
