@@ -1136,11 +1136,12 @@ const STRIP: usize = 16;
 /// The pixels of image rows `rows` of an image `w` pixels wide, as (row in `rows`, image
 /// row, column), in the order they are cast: strip by strip of [`STRIP`] columns, each
 /// strip row by row, every other row right to left (so that each ray follows a
-/// neighbour: under `max` a ray starts from where the last found its maximum). The rays of a strip of a few rows read much the same voxels, so
-/// these stay in the core's second-level cache between them, where whole image rows
-/// of a large volume would not (cachegrind, a 264 × 256 × 256 float volume, 256² rays
-/// along its second axis, 8 rows at a time: 1.8 M misses of a 512 KiB cache instead
-/// of 4.6 M). The order changes no bit of the image.
+/// neighbour: under `max` a ray starts from where the last found its maximum). The
+/// rays of a strip of a few rows read much the same voxels, so these stay in the
+/// core's second-level cache between them, where whole image rows of a large volume
+/// would not (cachegrind, a 264 × 256 × 256 float volume, 256² rays along its second
+/// axis, 8 rows at a time: 1.8 M misses of a 512 KiB cache instead of 4.6 M). The
+/// order changes no bit of the image.
 fn pixels(rows: core::ops::Range<u32>, w: usize) -> impl Iterator<Item = (usize, u32, usize)> {
     (0..w).step_by(STRIP).flat_map(move |x0| {
         rows.clone().enumerate().flat_map(move |(r, vi)| {
