@@ -1157,7 +1157,8 @@ mod tests {
     use crate::blend::Blend;
     use crate::kernel::{Bspln2, Bspln3, Tent};
 
-    /// `pixels` gives every pixel of the rows once, strips of `STRIP` columns in order.
+    /// `pixels` gives every pixel of the rows once, strips of `STRIP` columns in order,
+    /// each pixel of a strip beside the one before (every other row reversed).
     #[test]
     fn pixels_cover_each_pixel_once() {
         for (rows, w) in [

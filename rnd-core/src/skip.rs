@@ -944,7 +944,8 @@ impl SkipGrid {
     /// box from `lo` to `hi` (as [`SkipGrid::bound_over`]), asked block by block until
     /// it fails: for a test that holds for any bound below one it holds for, the same
     /// answer as `under(bound_over(lo, hi))`, most often sooner. False for a box
-    /// beyond the grid (or with `lo > hi` on an axis).
+    /// beyond the grid, or whose last block comes before its first on an axis (`lo >
+    /// hi` within one block reads that block: its bound covers the empty box too).
     #[inline(always)]
     pub fn every_bound(
         &self,
