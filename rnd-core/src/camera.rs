@@ -353,6 +353,35 @@ impl Camera {
         (hi, vi)
     }
 
+    /// Continuous pixel coordinates `[h0, h1, v0, v1]` of a rectangle holding the image
+    /// of the convex hull of `pts` (world): a ray through a pixel outside it does not
+    /// meet the hull (in exact arithmetic; callers add their own margins). None when a
+    /// point is not well in front of the eye (perspective), where the image may be
+    /// unbounded, or is not finite.
+    pub fn reach(&self, pts: &[[f64; 3]]) -> Option<[f64; 4]> {
+        let mut r = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for &p in pts {
+            let v = self.wtov.point(p);
+            // (A central projection keeps convexity only for points in front of the
+            // eye; a point near the eye plane would also magnify every rounding.)
+            let front = -v[2] > 1e-6 * (v[0].abs() + v[1].abs() + v[2].abs());
+            if !self.spec.orthographic && !front {
+                return None;
+            }
+            let (h, w) = self.project(p);
+            if !(h.is_finite() && w.is_finite()) {
+                return None;
+            }
+            r = [r[0].min(h), r[1].max(h), r[2].min(w), r[3].max(w)];
+        }
+        Some(r)
+    }
+
     /// View-space start on the near plane and per-plane step for pixel (hi, vi), for a
     /// plane separation `plane_sep`: perspective rays start where the line from the eye
     /// through the pixel's image-plane point meets the near plane; orthographic rays
@@ -386,6 +415,31 @@ mod tests {
             fov: 16.,
             size: [300, 300],
             orthographic: false,
+        }
+    }
+
+    /// `reach` holds the projections of the points given (and so of their hull), and
+    /// is None for a perspective camera with a point behind the eye.
+    #[test]
+    fn reach_holds_the_points() {
+        let pts = [[1.0, 2.0, -1.0], [-2.0, 0.5, 1.5], [0.0, -1.0, 0.0]];
+        for ortho in [false, true] {
+            let c = Camera::new(CameraSpec {
+                orthographic: ortho,
+                ..spec()
+            })
+            .unwrap();
+            let r = c.reach(&pts).unwrap();
+            for p in pts {
+                let (h, v) = c.project(p);
+                assert!(
+                    h >= r[0] && h <= r[1] && v >= r[2] && v <= r[3],
+                    "{p:?} {r:?}"
+                );
+            }
+            // Behind the eye at (6, 12, 5), looking towards the origin.
+            let behind = c.reach(&[[0.0; 3], [12.0, 24.0, 10.0]]);
+            assert_eq!(behind.is_none(), !ortho);
         }
     }
 

@@ -80,6 +80,9 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// ray's positions could lie too far from the exact line for its ghost layers.
     pub own: Option<Own>,
     pub imprecise: Cell<bool>,
+    /// Pixels `[h0, h1] × [v0, v1]` outside which no ray meets the volume's samples'
+    /// supports, in either arithmetic ([`RenderSpec::reach`]); None: any may.
+    pub reach: Option<[f64; 4]>,
 }
 
 /// Where a ray's result goes: the pixel, or (for a brick) the partial blend and, under
@@ -88,6 +91,16 @@ pub(crate) struct March<'s, 'a, A: Arith> {
 pub(crate) enum Out<'o> {
     Pixel(&'o mut [f32]),
     Part(&'o mut Partial, &'o mut alloc::vec::Vec<f32>),
+}
+
+/// Whether the ray through pixel (hi, vi) may meet the volume: inside the rectangle
+/// `reach` ([`March::reach`]), or none is known.
+#[inline(always)]
+pub(crate) fn meets(reach: Option<[f64; 4]>, hi: u32, vi: u32) -> bool {
+    reach.is_none_or(|r| {
+        let (h, v) = (f64::from(hi), f64::from(vi));
+        (h >= r[0]) & (h <= r[1]) & (v >= r[2]) & (v <= r[3])
+    })
 }
 
 /// Rays without a skip after which bounds are looked at only now and then.
@@ -443,7 +456,6 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let out = &mut out;
         let sp = self.spec;
         let p = &sp.params;
-        let ray = self.a.ray(hi, vi);
         let mut st = State {
             acc: Accum::new(p.blend, p.probe.length()),
             transp: 1.0,
@@ -461,6 +473,12 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         };
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
+        // A ray that misses the volume's box has nothing inside: the result of no
+        // sample, without the ray's geometry (unless its samples outside are asked for).
+        if !(everywhere || st.trace.is_some() || self.own.is_some() || meets(self.reach, hi, vi)) {
+            return self.finish(&mut st, out);
+        }
+        let ray = self.a.ray(hi, vi);
         let kend = self.kend();
         // A brick casts its stretch of the ray.
         let (w0, w1) = match &self.own {
@@ -711,6 +729,14 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
             st.acc.count += st.unseen;
         }
         self.finish(&mut st, out);
+    }
+
+    /// [`March::reach`] where a ray outside it needs no casting: its result is that of
+    /// no sample, the same for every such ray (not for a probe that sees samples
+    /// outside, nor a brick's stretch); None otherwise.
+    pub(crate) fn bare_reach(&self) -> Option<[f64; 4]> {
+        self.reach
+            .filter(|_| !self.spec.params.probe.everywhere() && self.own.is_none())
     }
 
     /// One past the last sample a ray casts (sample 0 alone when the spec samples once:
@@ -1570,6 +1596,25 @@ impl<A: Arith> March<'_, '_, A> {
             }
         }
         full
+    }
+
+    /// For tests: the ray through (hi, vi), when outside [`March::reach`], has no
+    /// sample inside from the near plane to the far plane (asserted); 1 for such a
+    /// ray, else 0.
+    pub(crate) fn check_reach(&self, hi: u32, vi: u32) -> usize {
+        if meets(self.reach, hi, vi) {
+            return 0;
+        }
+        let ray = self.a.ray(hi, vi);
+        for k in 0..self.kend() {
+            let at = self.a.place(&ray, k).map(|(n, _)| n);
+            assert_eq!(
+                at, None,
+                "ray ({hi}, {vi}) outside {:?}, sample {k}",
+                self.reach
+            );
+        }
+        1
     }
 
     /// For tests: every stretch that a [`Walk`] gives along the ray through (hi, vi),

@@ -637,6 +637,39 @@ impl<'a> RenderSpec<'a> {
         )
     }
 
+    /// The pixels whose rays may meet the supports of `vol`'s samples: a rectangle
+    /// `[h0, h1] × [v0, v1]` holding the image ([`Camera::reach`]) of the box of index
+    /// positions where a support can be inside (one voxel beyond the samples on every
+    /// side, for every kernel), widened by 2 voxels plus 10⁻⁴ of the magnitudes the
+    /// arithmetics compute ray positions from (far more than either rounds by), then by
+    /// a pixel. None when no bounded rectangle holds it (a perspective camera inside or
+    /// beside the box).
+    pub(crate) fn reach<V: Voxel>(&self, vol: &Volume<'_, V>) -> Option<[f64; 4]> {
+        let cam = &self.camera;
+        let m = &vol.wtoi().m;
+        let norm = (0..3)
+            .map(|r| m[4 * r].abs() + m[4 * r + 1].abs() + m[4 * r + 2].abs())
+            .fold(0.0, f64::max);
+        let shift = m[3].abs().max(m[7].abs()).max(m[11].abs());
+        let from = cam.spec.from.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let world = from + cam.fcv.abs() + cam.wdth.abs() + cam.hght.abs();
+        let (org, sz) = (vol.origin(), vol.sizes());
+        let end = |a: usize| (org[a] + sz[a]) as f64;
+        let index = end(0).max(end(1)).max(end(2));
+        let margin = 2.0 + 1e-4 * (norm * world + shift + index);
+        let corners: [[f64; 3]; 8] = core::array::from_fn(|c| {
+            vol.itow().point(core::array::from_fn(|a| {
+                if c >> a & 1 == 1 {
+                    end(a) + margin
+                } else {
+                    org[a] as f64 - 1.0 - margin
+                }
+            }))
+        });
+        let r = cam.reach(&corners)?;
+        Some([r[0] - 1.0, r[1] + 1.0, r[2] - 1.0, r[3] + 1.0])
+    }
+
     /// Runs `f` with the loop over `vol` in the spec's arithmetic (casting the stretches
     /// `own` gives, for a brick); `traced` when a trace will see the samples (which
     /// shows their values even where the probe does not need them).
@@ -649,6 +682,7 @@ impl<'a> RenderSpec<'a> {
         f: impl FnOnce(&dyn Cast) -> R,
     ) -> R {
         let (sizes, org) = (vol.sizes(), vol.origin().map(|o| o as i64));
+        let reach = self.reach(&vol);
         // Only a grid made for this render and volume shape is used.
         let skip = skip.filter(|g| {
             self.skip_kind()
@@ -663,7 +697,7 @@ impl<'a> RenderSpec<'a> {
                 self.params.unit_step as f32,
             );
             a.value = traced || !matches!(self.params.probe, Probe::GradMag | Probe::GradVec);
-            f(&march::<_, K, S>(self, a, skip, sizes, org, own))
+            f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
         } else {
             let a = F64::<V, K, S>::new(
                 vol,
@@ -673,7 +707,7 @@ impl<'a> RenderSpec<'a> {
                 self.params.unit_step,
                 &self.ln_transparency,
             );
-            f(&march::<_, K, S>(self, a, skip, sizes, org, own))
+            f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
         }
     }
 
@@ -831,8 +865,20 @@ impl<'a> RenderSpec<'a> {
     ) {
         let (w, ch) = (self.size()[0] as usize, self.channels);
         let (plen, mode) = (self.params.probe.length(), self.loop_mode());
+        // Rays that miss the volume all give one result: cast once, then copied (unless
+        // each pixel's time is asked for).
+        let reach = m.bare_reach().filter(|_| clock.is_none());
+        let mut missed = None;
         for (r, vi, hi) in pixels(rows, w) {
-            let px = &mut out[(r * w + hi) * ch..(r * w + hi + 1) * ch];
+            let at = (r * w + hi) * ch;
+            if !crate::march::meets(reach, hi as u32, vi) {
+                if let Some(j) = missed {
+                    out.copy_within(j..j + plen, at);
+                    continue;
+                }
+                missed = Some(at);
+            }
+            let px = &mut out[at..at + ch];
             let t0 = clock.map(|c| c());
             m.cast(hi as u32, vi, Out::Pixel(&mut px[..plen]), mode, None);
             if let (Some(c), Some(t0)) = (clock, t0) {
@@ -893,6 +939,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
     sizes: [usize; 3],
     org: [i64; 3],
     own: Option<Own>,
+    reach: Option<[f64; 4]>,
 ) -> March<'s, 'a, A> {
     March {
         spec,
@@ -908,6 +955,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         idle: core::cell::Cell::new(0),
         wait: core::cell::Cell::new(0),
         kept: core::cell::Cell::new(crate::blend::Kept::new()),
+        reach,
     }
 }
 
@@ -923,8 +971,13 @@ trait Cast {
     /// For tests: [`March::check_windows`].
     #[cfg(test)]
     fn check_windows(&self, hi: u32, vi: u32) -> usize;
+    /// For tests: [`March::check_reach`].
+    #[cfg(test)]
+    fn check_reach(&self, hi: u32, vi: u32) -> usize;
     /// [`March::windows`].
     fn windows(&self) -> Option<crate::march::Windows>;
+    /// [`March::bare_reach`].
+    fn bare_reach(&self) -> Option<[f64; 4]>;
     /// Whether a brick's ray could not be cast exactly (see [`Own`]).
     #[cfg_attr(test, allow(dead_code))] // (bricks render outside the unit tests)
     fn imprecise(&self) -> bool;
@@ -946,8 +999,15 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     fn check_windows(&self, hi: u32, vi: u32) -> usize {
         March::check_windows(self, hi, vi)
     }
+    #[cfg(test)]
+    fn check_reach(&self, hi: u32, vi: u32) -> usize {
+        March::check_reach(self, hi, vi)
+    }
     fn windows(&self) -> Option<crate::march::Windows> {
         March::windows(self)
+    }
+    fn bare_reach(&self) -> Option<[f64; 4]> {
+        March::bare_reach(self)
     }
     fn imprecise(&self) -> bool {
         self.imprecise.get()
@@ -1283,6 +1343,22 @@ mod tests {
             assert!(each_ray::<Tent, 2>(vol, false, runs) > 1000);
             assert!(each_ray::<Bspln2, 3>(vol, false, runs) > 1000);
             assert!(each_ray::<Bspln3, 4>(vol, false, runs) > 1000);
+        });
+    }
+
+    /// A ray through a pixel outside the rectangle where rays may meet the volume
+    /// (`RenderSpec::reach`) has no sample inside, in either arithmetic, for supports
+    /// 1 to 6 (see [`each_ray`] and [`on_volumes`]); and some rays are outside it.
+    #[test]
+    fn rays_outside_reach_miss() {
+        use crate::kernel::{BoxK, C4Hexic};
+        let miss = |m: &dyn Cast, hi, vi| m.check_reach(hi, vi);
+        on_volumes(|vol| {
+            assert!(each_ray::<BoxK, 1>(vol, false, miss) > 100);
+            assert!(each_ray::<Tent, 2>(vol, false, miss) > 100);
+            assert!(each_ray::<Bspln2, 3>(vol, false, miss) > 100);
+            assert!(each_ray::<Bspln3, 4>(vol, true, miss) > 100);
+            assert!(each_ray::<C4Hexic, 6>(vol, false, miss) > 100);
         });
     }
 
