@@ -474,8 +474,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         let over = p.blend == Blend::Over;
         let everywhere = p.probe.everywhere();
         // A ray that misses the volume's box has nothing inside: the result of no
-        // sample, without the ray's geometry (unless its samples outside are asked for).
-        if !(everywhere || st.trace.is_some() || self.own.is_some() || meets(self.reach, hi, vi)) {
+        // sample, without the ray's geometry (unless a trace sees its samples outside).
+        if st.trace.is_none() && !meets(self.bare_reach(), hi, vi) {
             return self.finish(&mut st, out);
         }
         let ray = self.a.ray(hi, vi);
