@@ -13,12 +13,28 @@ const COMMON: &[&str] = &[
     "32", "-nt", "2",
 ];
 
+/// Lit `over` with the head's LUT and lights (the options after `COMMON`'s, which they
+/// override): every frame has an opacity grid, which the volume keeps between frames.
+fn lit_over() -> Vec<String> {
+    let d = |f: &str| rnd_tests::data(f).to_string_lossy().into_owned();
+    let mut o: Vec<String> = ["-k", "bspln3", "-p", "rgbalit", "-b", "over", "-lut"]
+        .map(String::from)
+        .to_vec();
+    o.extend([d("head-lut.nrrd"), "-lit".into(), d("head-lights.txt")]);
+    o
+}
+
 fn turn(dir: &Path, extra: &[&str]) -> std::process::Output {
+    turn_with(dir, &[], extra)
+}
+
+fn turn_with(dir: &Path, opts: &[String], extra: &[&str]) -> std::process::Output {
     Command::new(RENDR)
         .arg("turn")
         .arg("-i")
         .arg(rnd_tests::data("itk-t1-head.nrrd"))
         .args(COMMON)
+        .args(opts)
         .args(extra)
         .current_dir(dir)
         .output()
@@ -49,35 +65,46 @@ fn nums(words: &[String], opt: &str, n: usize) -> Vec<f64> {
 #[test]
 fn every_frame_is_go_with_its_camera() {
     let dir = rnd_tests::tmpdir("turn-frames");
-    let out = turn(
-        &dir,
-        &[
-            "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1",
-            "-fov", "30", "-n", "4", "-o", "f", "-apng", "anim.png",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let cams = cams(&dir, "f");
-    assert_eq!(cams.len(), 4);
-    for (file, words) in &cams {
-        let go = Command::new(RENDR)
-            .arg("go")
-            .arg("-i")
-            .arg(rnd_tests::data("itk-t1-head.nrrd"))
-            .args(COMMON)
-            .args(words)
-            .args(["-o", "go.png"])
-            .current_dir(&dir)
-            .status()
-            .unwrap();
-        assert!(go.success());
-        let a = std::fs::read(dir.join(file)).unwrap();
-        let b = std::fs::read(dir.join("go.png")).unwrap();
-        assert!(a == b, "{file} differs from rendr go {}", words.join(" "));
+    // A value MIP, then lit `over` (whose frames after the first take the grid the
+    // volume kept: still go's bytes).
+    let mut cams = Vec::new();
+    for opts in [Vec::new(), lit_over()] {
+        let out = turn_with(
+            &dir,
+            &opts,
+            &[
+                "-fr", "323", "-12.5", "260", "-at", "-127", "-162.5", "110", "-up", "0", "0", "1",
+                "-fov", "30", "-n", "4", "-o", "f", "-apng", "anim.png",
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        cams = self::cams(&dir, "f");
+        assert_eq!(cams.len(), 4);
+        let mut seen = Vec::new();
+        for (file, words) in &cams {
+            let go = Command::new(RENDR)
+                .arg("go")
+                .arg("-i")
+                .arg(rnd_tests::data("itk-t1-head.nrrd"))
+                .args(COMMON)
+                .args(&opts)
+                .args(words)
+                .args(["-o", "go.png"])
+                .current_dir(&dir)
+                .status()
+                .unwrap();
+            assert!(go.success());
+            let a = std::fs::read(dir.join(file)).unwrap();
+            let b = std::fs::read(dir.join("go.png")).unwrap();
+            assert!(a == b, "{file} differs from rendr go {}", words.join(" "));
+            seen.push(a);
+        }
+        // (Frames that show something, and not all the same.)
+        assert!(seen.iter().any(|f| f != &seen[0]), "{opts:?}");
     }
     // A quarter turn apart about the up vector (z) through the look-at point: frame 2 is
     // half a turn from frame 0, so its look-from point is mirrored through the axis.

@@ -78,6 +78,18 @@ pub struct SkipGrid {
     /// Per pixel of the last render it was aimed for, the samples that can reach a
     /// block that is not empty ([`crate::render::RenderSpec::aim`]).
     windows: Option<crate::march::Windows>,
+    /// What decides the grid besides the voxels, kind, kernel and sizes: the LUT (an
+    /// opacity grid's) and the bound's coefficients (a `max` grid's, or an opacity
+    /// grid's gradient-magnitude axis): see [`SkipPlan::builds`].
+    made: Made,
+}
+
+/// What a grid was built from, besides its kind, kernel, sizes and voxels.
+#[derive(Debug, Clone, PartialEq)]
+struct Made {
+    lut: Option<Lut>,
+    /// [`Linear`]'s coefficients, as bits (the same bits, the same bounds).
+    bound: Option<[u64; 3]>,
 }
 
 /// Flag of a fine block: every sample whose support starts in it is transparent.
@@ -150,6 +162,11 @@ impl Linear {
                 }
             }
         }
+    }
+
+    /// The coefficients' bits.
+    fn bits(&self) -> [u64; 3] {
+        self.0.map(f64::to_bits)
     }
 
     fn bound(&self, m: f32, mx: f32) -> f32 {
@@ -724,7 +741,39 @@ impl<'l> SkipPlan<'l> {
             hi: cells.hi,
             coarse_hi: cells.coarse_hi,
             windows: None,
+            made: self.made(),
         }
+    }
+
+    /// What the grid is built from besides the voxels, kind, kernel and sizes.
+    fn made(&self) -> Made {
+        match &self.test {
+            Test::Opacity { lut, gm, .. } => Made {
+                lut: Some((*lut).clone()),
+                bound: gm.as_ref().map(Linear::bits),
+            },
+            Test::Bound(lin) => Made {
+                lut: None,
+                bound: Some(lin.bits()),
+            },
+        }
+    }
+
+    /// Whether `grid` is the grid this plan builds, given the same voxels (which the
+    /// caller vouches for: a grid does not keep them): the same kind, kernel, volume
+    /// sizes, LUT and bounds (the world-to-index map's part in them). A renderer that
+    /// keeps a volume's grid between frames (see `rnd_std::volume_io::VolumeBuf`)
+    /// builds it again only when this fails; the grid's windows are aimed anew each
+    /// render.
+    pub fn builds(&self, grid: &SkipGrid) -> bool {
+        let m = &grid.made;
+        (grid.kind, grid.kernel, grid.sizes) == (self.kind, self.kernel, self.sizes)
+            && match &self.test {
+                Test::Opacity { lut, gm, .. } => {
+                    m.lut.as_ref() == Some(*lut) && m.bound == gm.as_ref().map(Linear::bits)
+                }
+                Test::Bound(lin) => m.lut.is_none() && m.bound == Some(lin.bits()),
+            }
     }
 }
 
@@ -1048,6 +1097,47 @@ mod tests {
         assert!(!g.empty_at([12, 8, 3]) && !g.empty_at([13, 9, 4]));
         assert!(g.empty_fraction() < 1.0 && g.empty_at([0, 0, 8]) && g.coarse_empty_at([0, 0, 8]));
         assert!(!g.coarse_empty_at([8, 8, 0]));
+    }
+
+    /// A plan says that a grid is its own exactly when the grid was built with the same
+    /// kind, kernel, sizes, LUT and bounds (the world-to-index map's part in them):
+    /// what a renderer keeping a volume's grid between frames relies on.
+    #[test]
+    fn plans_know_their_grids() {
+        use super::{SkipKind, SkipPlan};
+        use crate::affine::Affine4;
+        use crate::kernel::KernelName;
+        use crate::txf::Lut;
+        use crate::volume::Volume;
+        let sizes = [12, 10, 9];
+        let d: Vec<i16> = (0..sizes.iter().product::<usize>())
+            .map(|i| (i % 11) as i16)
+            .collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let wide = Affine4::from_columns([2., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let vol = Volume::new(&d, sizes, itow).unwrap();
+        let (v2, small) = (
+            Volume::new(&d, sizes, wide).unwrap(),
+            Volume::new(&d[..sizes[0] * sizes[1] * 8], [12, 10, 8], itow).unwrap(),
+        );
+        let lut = |a: f32| Lut::new(0.0, 10.0, alloc::vec![[1.0, 1.0, 1.0, a]; 10]).unwrap();
+        let (l1, l2) = (lut(0.5), lut(0.25));
+        let t = KernelName::Tent;
+        let g = SkipPlan::new(&vol, t, &l1).build(&vol);
+        assert!(SkipPlan::new(&vol, t, &l1).builds(&g));
+        assert!(SkipPlan::new(&vol, t, &l1.clone()).builds(&g));
+        assert!(!SkipPlan::new(&vol, t, &l2).builds(&g));
+        assert!(!SkipPlan::new(&vol, KernelName::Bspln3, &l1).builds(&g));
+        assert!(!SkipPlan::new(&small, t, &l1).builds(&g));
+        let max = |v: &Volume<'_, i16>, k| SkipPlan::for_max(v, t, k).unwrap();
+        assert!(!max(&vol, SkipKind::MaxValue).builds(&g));
+        let gm = max(&vol, SkipKind::MaxGradMag).build(&vol);
+        assert!(max(&vol, SkipKind::MaxGradMag).builds(&gm));
+        assert!(!max(&vol, SkipKind::MaxValue).builds(&gm));
+        // The gradient's bound depends on the world-to-index map; the value's does not.
+        assert!(!max(&v2, SkipKind::MaxGradMag).builds(&gm));
+        let v = max(&vol, SkipKind::MaxValue).build(&vol);
+        assert!(max(&v2, SkipKind::MaxValue).builds(&v));
     }
 
     /// The bound on Σ|w| (values and derivatives) holds between its samples too: no

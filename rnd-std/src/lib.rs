@@ -36,7 +36,7 @@ pub mod prelude {
     pub use crate::files::{load_levoy, load_lights, load_lut, load_txf};
     pub use crate::image_out::{write_image, Image};
     pub use crate::nrrd::{write_volume, Nrrd};
-    pub use crate::parallel::{render_with, Control, Progress};
+    pub use crate::parallel::{render_volume, render_with, Control, Progress};
     pub use crate::volume_io::{load_volume, VolumeBuf, VolumeData};
     pub use crate::{Error, ErrorKind, Result};
 }

@@ -132,6 +132,121 @@ pub fn render_with(
     threads: usize,
     control: &Control<'_>,
 ) -> crate::Result<Vec<f32>> {
+    render_kept(spec, vol, kernel, threads, control, None)
+}
+
+/// [`render_with`] of a loaded volume, keeping its skip grid for the next frame: a
+/// render whose grid would be built from the same kind, kernel, LUT and bounds as the
+/// last one kept takes that one instead of building it again (the grid depends on the
+/// voxels, never on the camera, and is aimed at each frame's camera anew), so the
+/// frames after the first of a turntable or a viewer skip that work. The same image
+/// bits as [`render_with`] (the same grid); frames of the same volume may render at
+/// once, each then building its own grid when another holds the kept one.
+///
+/// For a volume mapped from its file ([`crate::volume_io::load_volume_mapped`]) the
+/// kept grid is as stale as the samples are new when another program changes the file
+/// in use (see [`crate::mapped`]): read such a file again instead.
+///
+/// ```
+/// use rnd_std::prelude::*;
+/// use rnd_std::volume_io::{VolumeBuf, VolumeData};
+///
+/// let vals: Vec<f32> = (0..16 * 16 * 16).map(|i| ((i % 16) * (i / 256)) as f32).collect();
+/// let vol = VolumeBuf::new(VolumeData::F32(vals), [16, 16, 16], Affine4::IDENTITY).unwrap();
+/// let cam = CameraSpec::framing(&vol.view().world_corners(), [1.0, 2.0, 3.0]).unwrap().size(24, 24);
+/// let mut p = RenderParams::new(cam);
+/// p.blend = Blend::Max;
+/// let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+/// let ctl = rnd_std::parallel::Control::new();
+/// let first = rnd_std::parallel::render_volume(&spec, &vol, KernelName::Bspln3, 1, &ctl).unwrap();
+/// let again = rnd_std::parallel::render_volume(&spec, &vol, KernelName::Bspln3, 2, &ctl).unwrap();
+/// let fresh = rnd_std::parallel::render_with(&spec, vol.view(), KernelName::Bspln3, 1, &ctl).unwrap();
+/// assert!(first == again && again == fresh);
+/// ```
+///
+/// # Errors
+/// As [`render_with`].
+pub fn render_volume(
+    spec: &RenderSpec<'_>,
+    vol: &crate::volume_io::VolumeBuf,
+    kernel: KernelName,
+    threads: usize,
+    control: &Control<'_>,
+) -> crate::Result<Vec<f32>> {
+    render_kept(
+        spec,
+        vol.view(),
+        kernel,
+        threads,
+        control,
+        Some(vol.grids()),
+    )
+}
+
+/// The skip grid a loaded volume keeps between renders ([`render_volume`]), and how many
+/// grids were built for it. A copy of the volume starts with none kept; two volumes
+/// compare equal whatever they keep.
+#[derive(Debug, Default)]
+pub(crate) struct KeptGrid {
+    grid: Mutex<Option<SkipGrid>>,
+    built: AtomicUsize,
+}
+
+impl Clone for KeptGrid {
+    fn clone(&self) -> Self {
+        KeptGrid::default()
+    }
+}
+
+impl PartialEq for KeptGrid {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl KeptGrid {
+    /// The kept grid when `plan` builds it, else a new one (built on `threads` threads).
+    fn take_or_build<V: Voxel>(
+        &self,
+        plan: SkipPlan<'_>,
+        vol: &Volume<'_, V>,
+        threads: usize,
+    ) -> SkipGrid {
+        // (A poisoned lock only means another render panicked holding it: the slot is
+        // still an Option, whatever it holds.)
+        let kept = self
+            .grid
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .take()
+            .filter(|g| plan.builds(g));
+        kept.unwrap_or_else(|| {
+            self.built.fetch_add(1, Ordering::Relaxed);
+            build_skip_grid(plan, vol, threads)
+        })
+    }
+
+    /// Keeps `grid` for the next render.
+    fn keep(&self, grid: SkipGrid) {
+        *self.grid.lock().unwrap_or_else(|e| e.into_inner()) = Some(grid);
+    }
+
+    /// How many grids renders of this volume have built.
+    #[cfg(test)]
+    pub(crate) fn built(&self) -> usize {
+        self.built.load(Ordering::Relaxed)
+    }
+}
+
+/// [`render_with`], taking the grid from and leaving it in `kept` when given.
+fn render_kept(
+    spec: &RenderSpec<'_>,
+    vol: AnyVolume<'_>,
+    kernel: KernelName,
+    threads: usize,
+    control: &Control<'_>,
+    kept: Option<&KeptGrid>,
+) -> crate::Result<Vec<f32>> {
     spec.check_volume(vol.grid())?;
     let [w, h] = spec.size();
     let image_err = |e: Error| Error {
@@ -153,6 +268,7 @@ pub fn render_with(
         threads: usize,
         control: &'s Control<'c>,
         out: Vec<f32>,
+        kept: Option<&'s KeptGrid>,
     }
     impl ConvoTask for Task<'_, '_, '_> {
         type Output = Option<Vec<f32>>;
@@ -179,7 +295,10 @@ pub fn render_with(
                     spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
                 })
                 .map(|plan| {
-                    let mut g = build_skip_grid(plan, &vol, self.threads);
+                    let mut g = match self.kept {
+                        Some(k) => k.take_or_build(plan, &vol, self.threads),
+                        None => build_skip_grid(plan, &vol, self.threads),
+                    };
                     spec.aim::<V, K, S>(vol, &mut g);
                     g
                 });
@@ -196,6 +315,10 @@ pub fn render_with(
                     true
                 },
             );
+            // (Kept even when cancelled: the grid does not depend on how far it got.)
+            if let (Some(k), Some(g)) = (self.kept, skip) {
+                k.keep(g);
+            }
             (done == h).then_some(out)
         }
     }
@@ -210,6 +333,7 @@ pub fn render_with(
             threads,
             control,
             out,
+            kept,
         },
     )
     .ok_or_else(cancelled)
@@ -587,5 +711,115 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A loaded volume keeps its skip grid between renders: the frames after the first
+    /// build none while the kind, kernel, LUT and bounds stay (whatever the camera and
+    /// thread count), one when any changes, and every frame has the bits of a render
+    /// that builds its own grid. A copy of the volume keeps nothing.
+    #[test]
+    fn volumes_keep_their_grids_between_frames() {
+        use crate::volume_io::{VolumeBuf, VolumeData};
+        use rnd_core::blend::Blend;
+        use rnd_core::camera::CameraSpec;
+        use rnd_core::probe::Probe;
+        use rnd_core::render::{RenderParams, RenderSpec};
+        let sizes = [24, 20, 22];
+        let data: Vec<i16> = (0..sizes.iter().product::<usize>())
+            .map(|i| {
+                let (x, y, z) = (i % 24, (i / 24) % 20, i / 480);
+                let d = (x as i32 - 12).pow(2) + (y as i32 - 9).pow(2) + (z as i32 - 11).pow(2);
+                (1000 - 12 * d).max(0) as i16 + (i % 17) as i16
+            })
+            .collect();
+        let vol = VolumeBuf::new(VolumeData::I16(data), sizes, Affine4::IDENTITY).unwrap();
+        let lut = |a: f32| {
+            let e: Vec<[f32; 4]> = (0..100)
+                .map(|i| [1.0, 0.5, 0.2, if i < 40 { 0.0 } else { a }])
+                .collect();
+            Lut::new(0.0, 1000.0, e).unwrap()
+        };
+        let (l1, l2) = (lut(0.3), lut(0.6));
+        let corners = vol.view().world_corners();
+        fn spec<'l>(
+            corners: &[[f64; 3]],
+            lut: Option<&'l Lut>,
+            eye: [f64; 3],
+            blend: Blend,
+        ) -> RenderSpec<'l> {
+            let cam = CameraSpec::framing(corners, eye).unwrap().size(40, 36);
+            let mut p = RenderParams::new(cam);
+            p.blend = blend;
+            p.probe = if lut.is_some() {
+                Probe::Rgba
+            } else {
+                Probe::Value
+            };
+            p.sample_once = false;
+            RenderSpec::new(p, lut, None, &[]).unwrap()
+        }
+        let ctl = super::Control::new();
+        let mut built = 0;
+        let frames = [
+            (
+                Some(&l1),
+                [1.0, 2.0, 3.0],
+                Blend::Over,
+                KernelName::Tent,
+                true,
+            ),
+            (
+                Some(&l1),
+                [-2.0, 1.0, 0.5],
+                Blend::Over,
+                KernelName::Tent,
+                false,
+            ),
+            (
+                Some(&l1),
+                [0.0, 0.0, 1.0],
+                Blend::Over,
+                KernelName::Tent,
+                false,
+            ),
+            (
+                Some(&l2),
+                [0.0, 0.0, 1.0],
+                Blend::Over,
+                KernelName::Tent,
+                true,
+            ),
+            (
+                Some(&l2),
+                [0.0, 0.0, 1.0],
+                Blend::Over,
+                KernelName::Bspln3,
+                true,
+            ),
+            (None, [1.0, 0.0, 0.0], Blend::Max, KernelName::Bspln3, true),
+            (None, [1.0, 1.0, 0.0], Blend::Max, KernelName::Bspln3, false),
+            (
+                Some(&l2),
+                [0.0, 0.0, 1.0],
+                Blend::Over,
+                KernelName::Bspln3,
+                true,
+            ),
+        ];
+        for (i, &(lut, eye, blend, k, builds)) in frames.iter().enumerate() {
+            let sp = spec(&corners, lut, eye, blend);
+            assert!(sp.skip_kind().is_some(), "frame {i} has a grid");
+            let kept = super::render_volume(&sp, &vol, k, 1 + i % 3, &ctl).unwrap();
+            built += usize::from(builds);
+            assert_eq!(vol.grids().built(), built, "frame {i}");
+            let own = super::render_with(&sp, vol.view(), k, 1, &ctl).unwrap();
+            assert!(kept == own, "frame {i}");
+            assert!(kept.iter().any(|&x| x > 0.0), "frame {i} shows something");
+        }
+        let copy = vol.clone();
+        assert_eq!(copy.grids().built(), 0);
+        let sp = spec(&corners, Some(&l2), [0.0, 0.0, 1.0], Blend::Over);
+        super::render_volume(&sp, &copy, KernelName::Bspln3, 1, &ctl).unwrap();
+        assert_eq!((copy.grids().built(), vol.grids().built()), (1, built));
     }
 }

@@ -102,6 +102,9 @@ pub struct VolumeBuf {
     pub notes: Vec<String>,
     /// The format of the file it was read from.
     pub format: Format,
+    /// The skip grid renders keep for the next frame
+    /// ([`crate::parallel::render_volume`]).
+    grids: crate::parallel::KeptGrid,
 }
 
 impl VolumeBuf {
@@ -122,6 +125,7 @@ impl VolumeBuf {
             space: None,
             notes: Vec::new(),
             format: Format::Nrrd,
+            grids: Default::default(),
         })
     }
 
@@ -155,6 +159,11 @@ impl VolumeBuf {
     /// Index-to-world.
     pub fn itow(&self) -> Affine4 {
         *self.view().itow()
+    }
+
+    /// The skip grid kept between renders.
+    pub(crate) fn grids(&self) -> &crate::parallel::KeptGrid {
+        &self.grids
     }
 
     /// Voxel type name: `real` (f32) or `short`.
@@ -251,6 +260,7 @@ fn mapped_volume(h: &nrrd::Header, map: Arc<Mapping>) -> Result<VolumeBuf> {
         space: h.space.clone(),
         notes,
         format: Format::Nrrd,
+        grids: Default::default(),
     })
 }
 

@@ -516,6 +516,14 @@ pub fn load_volume(path: &Path, threads: usize) -> anyhow::Result<rnd_std::volum
     })
 }
 
+/// Whether `RND_VERBOSE` asks for render times (a number above 0).
+pub(crate) fn verbose() -> bool {
+    std::env::var("RND_VERBOSE")
+        .ok()
+        .and_then(|v| v.parse::<i32>().ok())
+        .is_some_and(|v| v > 0)
+}
+
 /// The render parameters, kernel and thread count the options of `a` ask for (the
 /// `go` options that neither name files nor choose outputs; shared with `view`).
 pub fn params(a: &Args) -> anyhow::Result<(RenderParams, KernelName, usize)> {
@@ -659,16 +667,11 @@ pub fn run_cached(
     if show {
         control = control.on_progress(&report);
     }
-    let data = rnd_std::parallel::render_with(&spec, vol.view(), kernel, threads, &control)?;
+    let data = rnd_std::parallel::render_volume(&spec, &vol, kernel, threads, &control)?;
     if show {
         eprint!("\r          \r");
     }
-    if std::env::var("RND_VERBOSE")
-        .ok()
-        .and_then(|v| v.parse::<i32>().ok())
-        .unwrap_or(0)
-        > 0
-    {
+    if verbose() {
         eprintln!(
             "rendr go: {} seconds to render (w/ {threads} threads)",
             g6(t0.elapsed().as_secs_f64())

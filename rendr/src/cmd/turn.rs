@@ -22,7 +22,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            \"rendr go\" with them writes the same frame bit for bit; -apng also writes \
            an animated PNG. Under \"mpirun -np N\" (a build with the cargo feature mpi) \
            frame i renders on process i mod N, each reading the whole volume, and \
-           process 0 writes the files one process would write.",
+           process 0 writes the files one process would write. The volume's skip grid \
+           is built for a process's first frame and kept for its others (it does not \
+           depend on the camera); RND_VERBOSE=1 prints each frame's render time.",
     response_files: true,
     opts: super::go::go_opts!(
         crate::args::req(&["n"], 1, "frames", "number of frames (1 to 100000)"),
@@ -266,6 +268,7 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
     }
     let (lut, lev, lights) = super::go::classification(a)?;
     let vol = super::go::load_volume(Path::new(&input), threads).with_context(|| input.clone())?;
+    let verbose = super::go::verbose();
     let mut frames: Vec<Option<Frame>> = Vec::with_capacity(n);
     let mut colour = PngColor::Rgb;
     for (i, cam) in cams.iter().enumerate() {
@@ -288,8 +291,16 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
         spec.check_volume(vol.sizes())
             .with_context(|| input.clone())?;
         let control = rnd_std::parallel::Control::new();
-        let data = rnd_std::parallel::render_with(&spec, vol.view(), kernel, threads, &control)
+        // (The volume keeps the skip grid of one frame for the next.)
+        let t0 = std::time::Instant::now();
+        let data = rnd_std::parallel::render_volume(&spec, &vol, kernel, threads, &control)
             .with_context(|| format!("frame {i}"))?;
+        if verbose {
+            eprintln!(
+                "rendr turn: frame {i}: {} seconds to render (w/ {threads} threads)",
+                crate::fmt::g6(t0.elapsed().as_secs_f64())
+            );
+        }
         let img = Image {
             data,
             channels: spec.channels(),

@@ -294,8 +294,7 @@ impl Session {
         spec.check_volume(self.vol.sizes())?;
         let flag = self.begin(&req.client, req.seq)?;
         let control = rnd_std::parallel::Control::new().cancel_flag(&flag);
-        let data =
-            rnd_std::parallel::render_with(&spec, self.vol.view(), kernel, threads, &control);
+        let data = rnd_std::parallel::render_volume(&spec, &self.vol, kernel, threads, &control);
         self.end(&req.client, req.seq);
         let data = data.map_err(|e| match e.kind {
             rnd_std::ErrorKind::Cancelled => Reply(409, "cancelled by a newer request".into()),
