@@ -114,8 +114,9 @@ struct State<'t> {
     transp: f32,
     memo: Memo,
     trace: Trace<'t>,
-    /// Under `max` with bounds: a value that one of the ray's samples reaches, so a
-    /// sample bounded strictly below it cannot be the maximum; the number of samples
+    /// Under `max` of `v` with bounds: a value that one of the ray's samples reaches,
+    /// so a sample bounded strictly below it cannot be the maximum (−∞ under `max` of
+    /// `gm`, and without bounds); the number of samples
     /// counted unconvolved (added to the count at the end, so that the first blended
     /// sample still starts the maximum); the sample number of the running maximum.
     floor: f32,
@@ -562,7 +563,10 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
         // Runs of a one-channel probe are reduced in the strategy's own layout.
         let gm = p.probe == Probe::GradMag;
         let scalar_runs = runs && (p.probe == Probe::Value || (gm && G));
-        if below.is_some() {
+        // (Not for `gm`: its one sample's gradient costs more than the floor saves.
+        // Measured, CT 256² bspln3 gradient MIP, render phase: 0.0623 s with it, 0.0607 s
+        // without; tent 0.0364 s both.)
+        if below.is_some() && !gm {
             st.floor = self.floor::<G>(&ray, self.hint.get(), k0, k1);
         }
         let mut b = Batch::<A::Frac, N>::new();
