@@ -143,9 +143,9 @@ pub fn render_with(
 /// bits as [`render_with`] (the same grid); frames of the same volume may render at
 /// once, each then building its own grid when another holds the kept one.
 ///
-/// For a volume mapped from its file ([`crate::volume_io::load_volume_mapped`]) the
-/// kept grid is as stale as the samples are new when another program changes the file
-/// in use (see [`crate::mapped`]): read such a file again instead.
+/// A volume mapped from its file ([`crate::volume_io::load_volume_mapped`]) shows the
+/// file as it is: if another program changes the file while it is in use, the samples
+/// change and the kept grid no longer fits them. Load such a file again instead.
 ///
 /// ```
 /// use rnd_std::prelude::*;
