@@ -342,7 +342,11 @@ impl Camera {
     /// Continuous pixel coordinates (hi, vi) at which world point `p` appears (the
     /// inverse of the ray set-up: pixel centres are at integer coordinates).
     pub fn project(&self, p: [f64; 3]) -> (f64, f64) {
-        let v = self.wtov.point(p);
+        self.project_view(self.wtov.point(p))
+    }
+
+    /// [`Camera::project`] of a point already in view space.
+    fn project_view(&self, v: [f64; 3]) -> (f64, f64) {
         let (u, w) = if self.spec.orthographic {
             (v[0], v[1])
         } else {
@@ -373,7 +377,7 @@ impl Camera {
             if !self.spec.orthographic && !front {
                 return None;
             }
-            let (h, w) = self.project(p);
+            let (h, w) = self.project_view(v);
             if !(h.is_finite() && w.is_finite()) {
                 return None;
             }
