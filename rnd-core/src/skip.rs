@@ -766,14 +766,8 @@ impl<'l> SkipPlan<'l> {
     /// builds it again only when this fails; the grid's windows are aimed anew each
     /// render.
     pub fn builds(&self, grid: &SkipGrid) -> bool {
-        let m = &grid.made;
         (grid.kind, grid.kernel, grid.sizes) == (self.kind, self.kernel, self.sizes)
-            && match &self.test {
-                Test::Opacity { lut, gm, .. } => {
-                    m.lut.as_ref() == Some(*lut) && m.bound == gm.as_ref().map(Linear::bits)
-                }
-                Test::Bound(lin) => m.lut.is_none() && m.bound == Some(lin.bits()),
-            }
+            && grid.made == self.made()
     }
 }
 
