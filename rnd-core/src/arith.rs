@@ -522,16 +522,17 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         if all == 0 {
             return None;
         }
-        // first0 + s0 (first1 + s1 first2): integers below 2^53 (the sizes of data held
+        // first0 + row (first1 + s1 first2): integers below 2^53 (the sizes of data held
         // in memory), exact in f64.
         // (Loops over whole lanes, so that they vectorize.)
         let sz = self.vol.sizes().map(|n| n as f64);
+        let row = self.vol.row_stride() as f64;
         let mut flat = [0.0f64; LANES];
         for (l, x) in flat.iter_mut().enumerate() {
             *x = f64::from(p.first[1][l]) + sz[1] * f64::from(p.first[2][l]);
         }
         for (l, x) in flat.iter_mut().enumerate() {
-            *x = f64::from(p.first[0][l]) + sz[0] * *x;
+            *x = f64::from(p.first[0][l]) + row * *x;
         }
         let mut base = [0usize; LANES];
         for (b, &x) in base.iter_mut().zip(&flat) {

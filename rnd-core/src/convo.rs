@@ -111,7 +111,8 @@ pub(crate) fn second_order_at<V: Voxel, K: Kernel<S>, const S: usize>(
     let (mut v, mut g, mut h) = (0.0f64, [0.0f64; 3], [[0.0f64; 3]; 3]);
     for k in 0..S {
         for j in 0..S {
-            let row = (n[0] as usize) + sz[0] * ((n[1] as usize + j) + sz[1] * (n[2] as usize + k));
+            let row = (n[0] as usize)
+                + vol.row_stride() * ((n[1] as usize + j) + sz[1] * (n[2] as usize + k));
             for i in 0..S {
                 let Some(x) = data.get(row + i) else {
                     continue;
@@ -331,10 +332,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
     ) {
         #[cfg(target_arch = "x86_64")]
         if let (4, Some(co)) = (S, K::CUBIC4) {
-            let (s0, s01) = (
-                self.sizes[0] as usize,
-                (self.sizes[0] * self.sizes[1]) as usize,
-            );
+            let (s0, s01) = (self.vol.row_stride(), self.vol.slice_stride());
             let (data, lo) = (self.vol.data(), K::LO as i64);
             if crate::simd::cubic_run::<V, G, N>(
                 self.simd, data, s0, s01, lo, start, step, k, &co, out,
@@ -363,10 +361,7 @@ impl<'v, V: Voxel, K: Kernel<S>, const S: usize> Convo<'v, V, K, S> {
         alpha: &[[f64; 3]; N],
         out: &mut [[f32; 4]; N],
     ) {
-        let (s0, s01) = (
-            self.sizes[0] as usize,
-            (self.sizes[0] * self.sizes[1]) as usize,
-        );
+        let (s0, s01) = (self.vol.row_stride(), self.vol.slice_stride());
         let base: [usize; N] = core::array::from_fn(|i| {
             let n = n[i];
             n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize

@@ -338,7 +338,6 @@ pub(crate) fn convolve_placed<V: Voxel, K: Kernel<S>, const S: usize>(
     al: V3,
     grad: bool,
 ) -> (f32, V3) {
-    let sz = vol.sizes();
     let mut w = [[0.0f32; S]; 3];
     let mut dw = [[0.0f32; S]; 3];
     for a in 0..3 {
@@ -351,7 +350,7 @@ pub(crate) fn convolve_placed<V: Voxel, K: Kernel<S>, const S: usize>(
         }
     }
     let data = vol.data();
-    let (s0, s01) = (sz[0], sz[0] * sz[1]);
+    let (s0, s01) = (vol.row_stride(), vol.slice_stride());
     let base = n[0] as usize + s0 * n[1] as usize + s01 * n[2] as usize;
     let (mut val, mut g) = (0.0f32, [0.0f32; 3]);
     for k in 0..S {
@@ -544,7 +543,7 @@ impl<const S: usize> Lanes<S> {
     pub fn push_placed<V: Voxel>(&mut self, vol: &Volume<'_, V>, n: [i64; 3], al: [f32; 3]) {
         let sz = vol.sizes();
         let l = self.len;
-        self.base[l] = n[0] as usize + sz[0] * (n[1] as usize + sz[1] * n[2] as usize);
+        self.base[l] = n[0] as usize + vol.row_stride() * (n[1] as usize + sz[1] * n[2] as usize);
         for a in 0..3 {
             self.al[a][l] = al[a];
         }

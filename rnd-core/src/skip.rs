@@ -452,7 +452,7 @@ impl<'l> SkipPlan<'l> {
                     let (mut m, mut mx, mut nan) = (f32::INFINITY, f32::NEG_INFINITY, false);
                     for k in range(fk, 2) {
                         for j in range(fj, 1) {
-                            let row = (k * sizes[1] + j) * sizes[0];
+                            let row = (k * sizes[1] + j) * vol.row_stride();
                             let r = range(fi, 0);
                             for v in data.get(row + r.start..row + r.end).unwrap_or(&[]) {
                                 let x = v.to_f32();
@@ -620,8 +620,9 @@ impl<'l> SkipPlan<'l> {
         // for each of its fine blocks (a zero-opacity range has zero-opacity parts).
         let range = |b: usize, a: usize| (b * F)..((b + 1) * F + s - 1).min(sizes[a]);
         let data = vol.data();
-        let (s0, s1) = (sizes[0], sizes[1]);
-        let plane = s0 * s1;
+        // (Planes as stored: rows `row` samples apart, their padding included.)
+        let (s0, s1, row) = (sizes[0], sizes[1], vol.row_stride());
+        let plane = row * s1;
         let mut zlo = alloc::vec![V::TOP; plane];
         let mut zhi = alloc::vec![V::BOTTOM; plane];
         let mut ylo = alloc::vec![V::TOP; s0];
@@ -646,7 +647,7 @@ impl<'l> SkipPlan<'l> {
                     ylo.fill(V::TOP);
                     yhi.fill(V::BOTTOM);
                     for j in range(fj, 1) {
-                        let rows = j * s0..(j + 1) * s0;
+                        let rows = j * row..j * row + s0;
                         V::merge_bounds(&mut ylo, &mut yhi, &zlo[rows.clone()], &zhi[rows]);
                     }
                     let at = (fk - ck * R) * slab + nf[0] * fj;
@@ -698,8 +699,9 @@ impl<'l> SkipPlan<'l> {
                             part.starts[g] = if e {
                                 !0
                             } else {
-                                start_tests(runs, wneg, fmin[l], fmax[l])
-                                    .map_or(0, |t| start_bits(self.simd, data, sizes, s, fb, &t))
+                                start_tests(runs, wneg, fmin[l], fmax[l]).map_or(0, |t| {
+                                    start_bits(self.simd, data, sizes, row, s, fb, &t)
+                                })
                             };
                             all & e
                         });
@@ -772,14 +774,16 @@ impl<'l> SkipPlan<'l> {
 }
 
 /// [`SkipGrid::starts`] of fine block `fb` (block numbers per axis) of a volume of
-/// `sizes` voxels `data` reconstructed with a kernel of support `s`: set for each
-/// support start in the block whose whole support is inside and whose voxels, least `l`
-/// and greatest `h`, meet one of the `tests` (`l ≥ l0` and `h ≤ h0`, [`start_tests`]).
-/// None below [`STARTS_MIN`] and above 6 (the bits' layout, [`starts_of`]).
+/// `sizes` voxels `data` (rows `row` samples apart) reconstructed with a kernel of
+/// support `s`: set for each support start in the block whose whole support is inside
+/// and whose voxels, least `l` and greatest `h`, meet one of the `tests` (`l ≥ l0`
+/// and `h ≤ h0`, [`start_tests`]). None below [`STARTS_MIN`] and above 6 (the bits'
+/// layout, [`starts_of`]).
 fn start_bits<V: Voxel>(
     simd: Simd,
     data: &[V],
     sizes: [usize; 3],
+    row: usize,
     s: usize,
     fb: [usize; 3],
     tests: &[(f32, f32); 2],
@@ -791,11 +795,11 @@ fn start_bits<V: Voxel>(
     crate::simd::wide(simd, {
         #[inline(always)]
         || match s {
-            2 => starts_of::<V, 2>(simd, data, sizes, fb, tests),
-            3 => starts_of::<V, 3>(simd, data, sizes, fb, tests),
-            4 => starts_of::<V, 4>(simd, data, sizes, fb, tests),
-            5 => starts_of::<V, 5>(simd, data, sizes, fb, tests),
-            6 => starts_of::<V, 6>(simd, data, sizes, fb, tests),
+            2 => starts_of::<V, 2>(simd, data, sizes, row, fb, tests),
+            3 => starts_of::<V, 3>(simd, data, sizes, row, fb, tests),
+            4 => starts_of::<V, 4>(simd, data, sizes, row, fb, tests),
+            5 => starts_of::<V, 5>(simd, data, sizes, row, fb, tests),
+            6 => starts_of::<V, 6>(simd, data, sizes, row, fb, tests),
             // (Every support the bits' layout holds is above: a kernel added to the
             // table gets its start bits with nothing more.)
             _ => 0,
@@ -815,6 +819,7 @@ fn starts_of<V: Voxel, const S: usize>(
     simd: Simd,
     data: &[V],
     sizes: [usize; 3],
+    row: usize,
     fb: [usize; 3],
     tests: &[(f32, f32); 2],
 ) -> u64 {
@@ -841,7 +846,7 @@ fn starts_of<V: Voxel, const S: usize>(
     for (z, col) in cols.iter_mut().enumerate().take(w) {
         let mut rows = [0u32; F + 5];
         for (y, r) in rows.iter_mut().enumerate().take(w) {
-            let base = (zs[z] * sizes[1] + ys[y]) * sizes[0];
+            let base = (zs[z] * sizes[1] + ys[y]) * row;
             let Some(row) = data.get(base..base + sizes[0]) else {
                 return 0;
             };
@@ -1660,12 +1665,12 @@ mod tests {
                     // Both the vector rows (where the processor has them) and the portable.
                     for simd in [Simd::detect(), Simd::at_most(SimdLevel::Baseline)] {
                         prop_assert_eq!(
-                            start_bits(simd, ints, sizes, s, fb, &tests),
+                            start_bits(simd, ints, sizes, sizes[0], s, fb, &tests),
                             want(s, fb, &tests, &|i| f32::from(ints[i])),
                             "i16, support {}, block {:?}, {:?}", s, fb, simd
                         );
                         prop_assert_eq!(
-                            start_bits(simd, &floats, sizes, s, fb, &halves),
+                            start_bits(simd, &floats, sizes, sizes[0], s, fb, &halves),
                             want(s, fb, &halves, &|i| floats[i]),
                             "f32, support {}, block {:?}, {:?}", s, fb, simd
                         );

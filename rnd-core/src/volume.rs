@@ -7,8 +7,9 @@ use crate::affine::Affine4;
 use crate::error::{Error, ErrorKind, Result};
 use crate::voxel::Voxel;
 
-/// A 3-D scalar volume: samples stored fast-to-slow (`i + s0*(j + s1*k)`), borrowed from
-/// the caller, plus the index-to-world transform: sample (i, j, k) sits at world point
+/// A 3-D scalar volume: samples stored fast-to-slow (`i + r*(j + s1*k)`, where the row
+/// stride `r` is the fast axis's size `s0`, or more for a [`Volume::padded`] volume),
+/// borrowed from the caller, plus the index-to-world transform: sample (i, j, k) sits at world point
 /// `itow · (i, j, k, 1)` (the sample is at the centre of its cell; index positions run
 /// from 0 to size − 1 along each axis).
 ///
@@ -27,6 +28,8 @@ use crate::voxel::Voxel;
 pub struct Volume<'a, V: Voxel> {
     data: &'a [V],
     sizes: [usize; 3],
+    /// Samples from one row to the next (`sizes[0]`, or more for [`Volume::padded`]).
+    row: usize,
     /// Index (in the grid) of the first sample held, and the grid's sizes: a volume made
     /// by [`Volume::region`] holds a box of a larger grid (origin 0 and grid = sizes
     /// otherwise).
@@ -80,11 +83,47 @@ impl<'a, V: Voxel> Volume<'a, V> {
         Ok(Volume {
             data,
             sizes,
+            row: sizes[0],
             origin: [0; 3],
             grid: sizes,
             itow,
             wtoi,
         })
+    }
+
+    /// Wraps `data` whose rows are `row` samples apart (`row >= sizes[0]`; the last
+    /// `row - sizes[0]` samples of each row are padding, never read as samples): the
+    /// layout a caller may copy a volume into when its row length in bytes is a large
+    /// power of two, whose rows would otherwise share the processor's cache sets. It
+    /// renders, probes and skips exactly as the same samples without padding.
+    ///
+    /// ```
+    /// use rnd_core::affine::Affine4;
+    /// use rnd_core::volume::Volume;
+    ///
+    /// let data = [0i16, 1, -1, 2, 3, -1, 4, 5, -1, 6, 7, -1]; // rows of 2 samples, 1 pad
+    /// let vol = Volume::padded(&data, [2, 2, 2], 3, Affine4::IDENTITY).unwrap();
+    /// assert_eq!((vol.at(1, 1, 1), vol.row_stride()), (7, 3));
+    /// assert_eq!(vol.min_max(), (0.0, 7.0));
+    /// assert!(Volume::padded(&data, [2, 2, 2], 1, Affine4::IDENTITY).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Volume::new`] (the data length is `row * sizes[1] * sizes[2]`), and when
+    /// `row < sizes[0]`.
+    pub fn padded(data: &'a [V], sizes: [usize; 3], row: usize, itow: Affine4) -> Result<Self> {
+        if row < sizes[0] {
+            return Err(Error::new(
+                ErrorKind::Volume,
+                alloc::format!(
+                    "row stride {row} is shorter than a row ({} samples)",
+                    sizes[0]
+                ),
+            ));
+        }
+        let mut v = Volume::new(data, [row, sizes[1], sizes[2]], itow)?;
+        (v.sizes, v.grid) = (sizes, sizes);
+        Ok(v)
     }
 
     /// Wraps `data`, the samples of the box `region` of a grid of `grid` samples whose
@@ -131,10 +170,21 @@ impl<'a, V: Voxel> Volume<'a, V> {
         Ok(v)
     }
 
-    /// The samples.
+    /// The samples as stored: sample (i, j, k) of those held is at `i + r * (j +
+    /// sizes[1] * k)`, `r` being [`Volume::row_stride`].
     #[inline(always)]
     pub fn data(&self) -> &'a [V] {
         self.data
+    }
+    /// Samples from one row to the next: `sizes()[0]`, or more for [`Volume::padded`].
+    #[inline(always)]
+    pub fn row_stride(&self) -> usize {
+        self.row
+    }
+    /// Samples from one slice (`k`) to the next: row stride × `sizes()[1]`.
+    #[inline(always)]
+    pub fn slice_stride(&self) -> usize {
+        self.row * self.sizes[1]
     }
     /// Sizes of the samples held, fast axis first (the grid's, but for a
     /// [`Volume::region`]).
@@ -170,7 +220,7 @@ impl<'a, V: Voxel> Volume<'a, V> {
     /// When (i, j, k) is outside the samples held.
     #[inline(always)]
     pub fn at(&self, i: usize, j: usize, k: usize) -> V {
-        self.data[i + self.sizes[0] * (j + self.sizes[1] * k)]
+        self.data[i + self.row * (j + self.sizes[1] * k)]
     }
     /// The world positions of the grid's eight corner samples (index 0 or size − 1 on
     /// each axis), e.g. for [`crate::camera::CameraSpec::framing`].
@@ -182,7 +232,8 @@ impl<'a, V: Voxel> Volume<'a, V> {
     pub fn min_max(&self) -> (f32, f32) {
         let mut lo = f32::INFINITY;
         let mut hi = f32::NEG_INFINITY;
-        for v in self.data {
+        let rows = self.data.chunks(self.row.max(1));
+        for v in rows.flat_map(|r| &r[..self.sizes[0].min(r.len())]) {
             let v = v.to_f32();
             if v < lo {
                 lo = v;
@@ -290,6 +341,7 @@ impl<V: Voxel> OwnedVolume<V> {
         Volume {
             data: &self.data,
             sizes: self.sizes,
+            row: self.sizes[0],
             origin: [0; 3],
             grid: self.sizes,
             itow: self.itow,

@@ -139,9 +139,11 @@ pub fn render_with(
 /// render whose grid would be built from the same kind, kernel, LUT and bounds as the
 /// last one kept takes that one instead of building it again (the grid depends on the
 /// voxels, never on the camera, and is aimed at each frame's camera anew), so the
-/// frames after the first of a turntable or a viewer skip that work. The same image
-/// bits as [`render_with`] (the same grid); frames of the same volume may render at
-/// once, each then building its own grid when another holds the kept one.
+/// frames after the first of a turntable or a viewer skip that work. A large volume
+/// whose rows alias in the cache renders from a padded copy it also keeps
+/// ([`crate::volume_io::VolumeBuf::render_view`]). The same image bits as
+/// [`render_with`] (the same grid, the same samples); frames of the same volume may
+/// render at once, each then building its own grid when another holds the kept one.
 ///
 /// A volume mapped from its file ([`crate::volume_io::load_volume_mapped`]) shows the
 /// file as it is: if another program changes the file while it is in use, the samples
@@ -175,7 +177,7 @@ pub fn render_volume(
 ) -> crate::Result<Vec<f32>> {
     render_kept(
         spec,
-        vol.view(),
+        vol.render_view(kernel, threads),
         kernel,
         threads,
         control,
@@ -821,5 +823,75 @@ mod tests {
         let sp = spec(&corners, Some(&l2), [0.0, 0.0, 1.0], Blend::Over);
         super::render_volume(&sp, &copy, KernelName::Bspln3, 1, &ctl).unwrap();
         assert_eq!((copy.grids().built(), vol.grids().built()), (1, built));
+    }
+
+    /// A volume whose rows alias (256 floats, 512 shorts; 16 MiB) renders from a copy
+    /// with padded rows, made once and kept, giving the bits of the unpadded volume for
+    /// bspln3 value and gradient MIPs, lit `over` (skip grids built from the copy), on
+    /// one and three threads; tent, and padding turned off, render the volume as it is.
+    #[test]
+    fn padded_copies_render_the_same_bits() {
+        use crate::volume_io::{VolumeBuf, VolumeData, ROW_PAD_BYTES};
+        use rnd_core::blend::Blend;
+        use rnd_core::camera::CameraSpec;
+        use rnd_core::light::{Light, LightSpace};
+        use rnd_core::probe::Probe;
+        use rnd_core::render::{AnyVolume, RenderParams, RenderSpec};
+        let f = |i: usize, s: [usize; 3]| {
+            let (x, y, z) = (i % s[0], i / s[0] % s[1], i / (s[0] * s[1]));
+            let r = |c: usize, n: usize| (c as f32 - n as f32 / 2.0) / n as f32;
+            let d = r(x, s[0]).powi(2) + r(y, s[1]).powi(2) + 4.0 * r(z, s[2]).powi(2);
+            (1.0 - 4.0 * d).max(0.0) * (1.0 + 0.3 * ((x + 3 * y + 7 * z) % 5) as f32)
+        };
+        let (sf, ss) = ([256, 256, 64], [512, 256, 64]);
+        let n = |s: [usize; 3]| s[0] * s[1] * s[2];
+        let vols = [
+            VolumeData::F32((0..n(sf)).map(|i| f(i, sf)).collect()),
+            VolumeData::I16((0..n(ss)).map(|i| (1000.0 * f(i, ss)) as i16).collect()),
+        ];
+        let light = [Light::new([1.0; 3], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
+        let ctl = super::Control::new();
+        for ((data, sizes), scale) in vols.into_iter().zip([sf, ss]).zip([1.0, 1000.0]) {
+            let entries = vec![[1.0, 1.0, 1.0, 0.0], [1.0, 0.5, 0.2, 0.6]];
+            let lut = Lut::new(0.0, scale, entries).unwrap();
+            let geom = Affine4::from_spacing([1.0, 1.0, 4.0], [-128.0; 3]);
+            let mut vol = VolumeBuf::new(data, sizes, geom).unwrap();
+            let row = |v: AnyVolume<'_>| match v {
+                AnyVolume::F32(v) => (v.row_stride(), 4),
+                AnyVolume::I16(v) => (v.row_stride(), 2),
+            };
+            let (stride, bytes) = row(vol.render_view(KernelName::Bspln3, 2));
+            assert_eq!(stride, sizes[0] + ROW_PAD_BYTES / bytes, "{sizes:?}");
+            assert_eq!(row(vol.render_view(KernelName::Tent, 2)).0, sizes[0]);
+            let corners = vol.view().world_corners();
+            for (probe, blend) in [
+                (Probe::Value, Blend::Max),
+                (Probe::GradMag, Blend::Max),
+                (Probe::RgbaLit, Blend::Over),
+            ] {
+                let cam = CameraSpec::framing(&corners, [1.0, -3.0, 0.5])
+                    .unwrap()
+                    .size(40, 32);
+                let mut p = RenderParams::new(cam);
+                (p.probe, p.blend, p.plane_sep) = (probe, blend, 1.5);
+                let sp = RenderSpec::new(p, Some(&lut), None, &light).unwrap();
+                let plain =
+                    super::render_with(&sp, vol.view(), KernelName::Bspln3, 1, &ctl).unwrap();
+                assert!(plain.iter().any(|&x| x > 0.0), "{probe} shows something");
+                for threads in [1, 3] {
+                    let padded =
+                        super::render_volume(&sp, &vol, KernelName::Bspln3, threads, &ctl).unwrap();
+                    assert!(
+                        padded
+                            .iter()
+                            .zip(&plain)
+                            .all(|(a, b)| a.to_bits() == b.to_bits()),
+                        "{sizes:?} {probe}, {threads} threads"
+                    );
+                }
+            }
+            vol.set_padding(false);
+            assert_eq!(row(vol.render_view(KernelName::Bspln3, 2)).0, sizes[0]);
+        }
     }
 }

@@ -35,7 +35,8 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.\n\
          Vector paths in use: {} (same images with any; RND_AVX2=0 or RND_AVX512=0\n\
          turn the wider ones off). Raw NRRD volumes are mapped, not copied\n\
-         (RENDR_MMAP=0 reads them into memory).",
+         (RENDR_MMAP=0 reads them into memory); large ones whose rows share cache\n\
+         sets render from a copy with padded rows (RENDR_PAD=0: as they are).",
         env!("CARGO_PKG_VERSION"),
         if cfg!(debug_assertions) {
             "debug"

@@ -192,7 +192,11 @@ pub static SPEC: CmdSpec = CmdSpec {
            (docs/SCALING.md); -db is refused there (run it without mpirun).\n\
            A NRRD whose samples are raw float or short in this machine's byte order is \
            used in place through a memory map of the file (no copy): do not change the \
-           file while it renders, or set RENDR_MMAP=0 to read it into memory instead.",
+           file while it renders, or set RENDR_MMAP=0 to read it into memory instead. \
+           A volume of 16 MiB or more whose rows are a multiple of 512 bytes long, \
+           rendered with a kernel of support 3 or more, is rendered from a copy with \
+           padded rows (the same image; such rows share the cache's sets); RENDR_PAD=0 \
+           renders it as it is.",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
@@ -506,14 +510,18 @@ impl VolumeCache {
 
 /// The volume in `path` for rendering (go, turn, view): raw NRRD samples used in place
 /// from a map of the file where they can be (`load_volume_mapped`), unless the
-/// environment says `RENDR_MMAP=0` (then every file is read into memory).
+/// environment says `RENDR_MMAP=0` (then every file is read into memory); rendered from
+/// a copy with padded rows where that pays (`VolumeBuf::render_view`), unless it says
+/// `RENDR_PAD=0`.
 pub fn load_volume(path: &Path, threads: usize) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
-    let read = std::env::var_os("RENDR_MMAP").is_some_and(|v| v == "0");
-    Ok(if read {
+    let env_off = |name: &str| std::env::var_os(name).is_some_and(|v| v == "0");
+    let mut vol = if env_off("RENDR_MMAP") {
         rnd_std::volume_io::load_volume_threads(path, threads)?
     } else {
         rnd_std::volume_io::load_volume_mapped(path, threads)?
-    })
+    };
+    vol.set_padding(!env_off("RENDR_PAD"));
+    Ok(vol)
 }
 
 /// Whether `RND_VERBOSE` asks for render times (a number above 0).

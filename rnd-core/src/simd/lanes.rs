@@ -50,8 +50,8 @@ impl<'a, V: Voxel> LaneBatch<'a, V> {
         } else {
             core::array::from_fn(|l| self.base[if l < self.len { l } else { 0 }])
         };
-        let sz = self.vol.sizes();
-        let sup = LaneSupports::new(self.vol.data(), base, sz[0], sz[0] * sz[1]);
+        let (s0, s01) = (self.vol.row_stride(), self.vol.slice_stride());
+        let sup = LaneSupports::new(self.vol.data(), base, s0, s01);
         (sup, self.al)
     }
 }
