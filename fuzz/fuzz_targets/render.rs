@@ -116,6 +116,14 @@ fuzz_target!(|data: &[u8]| {
         img.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
         "fast {img:?} vs plain {plain:?} for {p:?} {kernel}"
     );
+    // The same samples with padded rows (NaN padding, so a read of it would show).
+    let padded: Vec<f32> = data.chunks(6).flat_map(|r| r.iter().copied().chain([f32::NAN; 3])).collect();
+    let pvol = Volume::padded(&padded, [6, 7, 8], 9, itow).unwrap();
+    let pimg = render(&spec, AnyVolume::F32(pvol), kernel);
+    assert!(
+        img.iter().zip(&pimg).all(|(a, b)| a.to_bits() == b.to_bits()),
+        "padded {pimg:?} vs {img:?} for {p:?} {kernel}"
+    );
     // Reference arithmetic: may refuse what f32 cannot hold; otherwise finite output,
     // and the batched loop equals the one-sample loop.
     let mut r = p.clone();
@@ -125,6 +133,11 @@ fuzz_target!(|data: &[u8]| {
     if p.outside.is_finite() {
         assert!(lanes.iter().all(|v| !v.is_nan()), "-ref: NaN output for {p:?}");
     }
+    let planes = render(&ref_spec, AnyVolume::F32(pvol), kernel);
+    assert!(
+        lanes.iter().zip(&planes).all(|(a, b)| a.to_bits() == b.to_bits()),
+        "-ref padded {planes:?} vs {lanes:?} for {p:?} {kernel}"
+    );
     let one = traced(&ref_spec, AnyVolume::F32(vol), kernel);
     assert!(
         lanes.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()),

@@ -11,7 +11,7 @@ use std::time::Instant;
 use rnd_core::brick::{Own, Partial};
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
-use rnd_core::skip::{SkipGrid, SkipPlan};
+use rnd_core::skip::{SkipGrid, SkipKind, SkipPlan};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
 use rnd_core::Param;
@@ -132,7 +132,7 @@ pub fn render_with(
     threads: usize,
     control: &Control<'_>,
 ) -> crate::Result<Vec<f32>> {
-    render_kept(spec, vol, kernel, threads, control, None)
+    render_kept(spec, vol, kernel, threads, control, None, None)
 }
 
 /// [`render_with`] of a loaded volume, keeping its skip grid for the next frame: a
@@ -140,7 +140,8 @@ pub fn render_with(
 /// last one kept takes that one instead of building it again (the grid depends on the
 /// voxels, never on the camera, and is aimed at each frame's camera anew), so the
 /// frames after the first of a turntable or a viewer skip that work. A large volume
-/// whose rows alias in the cache renders from a padded copy it also keeps
+/// whose rows alias in the cache renders without a skip grid (none applies, or the
+/// `max` grid's pilot says it would not pay) from a padded copy it also keeps
 /// ([`crate::volume_io::VolumeBuf::render_view`]). The same image bits as
 /// [`render_with`] (the same grid, the same samples); frames of the same volume may
 /// render at once, each then building its own grid when another holds the kept one.
@@ -175,13 +176,30 @@ pub fn render_volume(
     threads: usize,
     control: &Control<'_>,
 ) -> crate::Result<Vec<f32>> {
+    // A padded copy pays where every ray reads its whole stretch of the volume: not
+    // under a skip grid, where a render reads little of a large volume and copying all
+    // of it costs more than the render saves (run 46: a 512 x 512 x 256 CT). So when the
+    // volume would be padded, the `max` grid's pilot runs first (once: its answer is
+    // handed on).
+    let pilot = match spec.skip_kind() {
+        Some(SkipKind::MaxValue | SkipKind::MaxGradMag) if vol.pads(kernel) => {
+            Some(spec.skip_pays(vol.view(), kernel, &|rays| on_threads(rays, threads)))
+        }
+        _ => None,
+    };
+    let view = if spec.skip_kind().is_none() || pilot == Some(false) {
+        vol.render_view(kernel, threads)
+    } else {
+        vol.view()
+    };
     render_kept(
         spec,
-        vol.render_view(kernel, threads),
+        view,
         kernel,
         threads,
         control,
         Some(vol.grids()),
+        pilot,
     )
 }
 
@@ -240,7 +258,8 @@ impl KeptGrid {
     }
 }
 
-/// [`render_with`], taking the grid from and leaving it in `kept` when given.
+/// [`render_with`], taking the grid from and leaving it in `kept` when given; `pilot`,
+/// when given, is what [`RenderSpec::skip_pays`] said for this render.
 fn render_kept(
     spec: &RenderSpec<'_>,
     vol: AnyVolume<'_>,
@@ -248,6 +267,7 @@ fn render_kept(
     threads: usize,
     control: &Control<'_>,
     kept: Option<&KeptGrid>,
+    pilot: Option<bool>,
 ) -> crate::Result<Vec<f32>> {
     spec.check_volume(vol.grid())?;
     let [w, h] = spec.size();
@@ -271,6 +291,7 @@ fn render_kept(
         control: &'s Control<'c>,
         out: Vec<f32>,
         kept: Option<&'s KeptGrid>,
+        pilot: Option<bool>,
     }
     impl ConvoTask for Task<'_, '_, '_> {
         type Output = Option<Vec<f32>>;
@@ -294,7 +315,9 @@ fn render_kept(
             let skip = spec
                 .skip_plan(&vol, K::NAME)
                 .filter(|_| {
-                    spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
+                    self.pilot.unwrap_or_else(|| {
+                        spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
+                    })
                 })
                 .map(|plan| {
                     let mut g = match self.kept {
@@ -336,6 +359,7 @@ fn render_kept(
             control,
             out,
             kept,
+            pilot,
         },
     )
     .ok_or_else(cancelled)
@@ -825,10 +849,12 @@ mod tests {
         assert_eq!((copy.grids().built(), vol.grids().built()), (1, built));
     }
 
-    /// A volume whose rows alias (256 floats, 512 shorts; 16 MiB) renders from a copy
-    /// with padded rows, made once and kept, giving the bits of the unpadded volume for
-    /// bspln3 value and gradient MIPs, lit `over` (skip grids built from the copy), on
-    /// one and three threads; tent, and padding turned off, render the volume as it is.
+    /// A volume whose rows alias (256 floats, 512 shorts; 16 MiB) renders without a
+    /// skip grid from a copy with padded rows, made once and kept, giving the bits of
+    /// the unpadded volume for bspln3 value and gradient MIPs and lit `over`, on one and
+    /// three threads; with a skip grid (these volumes always get the `max` grid, being
+    /// below the pilot's size) no copy is made; tent, and padding turned off, render
+    /// the volume as it is.
     #[test]
     fn padded_copies_render_the_same_bits() {
         use crate::volume_io::{VolumeBuf, VolumeData, ROW_PAD_BYTES};
@@ -860,20 +886,20 @@ mod tests {
                 AnyVolume::F32(v) => (v.row_stride(), 4),
                 AnyVolume::I16(v) => (v.row_stride(), 2),
             };
-            let (stride, bytes) = row(vol.render_view(KernelName::Bspln3, 2));
-            assert_eq!(stride, sizes[0] + ROW_PAD_BYTES / bytes, "{sizes:?}");
-            assert_eq!(row(vol.render_view(KernelName::Tent, 2)).0, sizes[0]);
             let corners = vol.view().world_corners();
-            for (probe, blend) in [
-                (Probe::Value, Blend::Max),
-                (Probe::GradMag, Blend::Max),
-                (Probe::RgbaLit, Blend::Over),
+            let mut copied = false;
+            for (skip, probe, blend) in [
+                (true, Probe::Value, Blend::Max),
+                (true, Probe::RgbaLit, Blend::Over),
+                (false, Probe::Value, Blend::Max),
+                (false, Probe::GradMag, Blend::Max),
+                (false, Probe::RgbaLit, Blend::Over),
             ] {
                 let cam = CameraSpec::framing(&corners, [1.0, -3.0, 0.5])
                     .unwrap()
                     .size(40, 32);
                 let mut p = RenderParams::new(cam);
-                (p.probe, p.blend, p.plane_sep) = (probe, blend, 1.5);
+                (p.probe, p.blend, p.plane_sep, p.skip_empty) = (probe, blend, 1.5, skip);
                 let sp = RenderSpec::new(p, Some(&lut), None, &light).unwrap();
                 let plain =
                     super::render_with(&sp, vol.view(), KernelName::Bspln3, 1, &ctl).unwrap();
@@ -889,7 +915,17 @@ mod tests {
                         "{sizes:?} {probe}, {threads} threads"
                     );
                 }
+                // The first render without a grid makes the copy.
+                copied |= !skip;
+                assert_eq!(
+                    vol.has_padded_copy(),
+                    copied,
+                    "{sizes:?} {probe} skip {skip}"
+                );
             }
+            let (stride, bytes) = row(vol.render_view(KernelName::Bspln3, 2));
+            assert_eq!(stride, sizes[0] + ROW_PAD_BYTES / bytes, "{sizes:?}");
+            assert_eq!(row(vol.render_view(KernelName::Tent, 2)).0, sizes[0]);
             vol.set_padding(false);
             assert_eq!(row(vol.render_view(KernelName::Bspln3, 2)).0, sizes[0]);
         }

@@ -125,6 +125,7 @@ pub const PAD_MIN_BYTES: usize = 16 << 20;
 /// supports evict each other), rendered with a kernel of support 3 or more (box and
 /// tent read too few rows to gain). Measured on a 256³ float volume (bspln3 MIPs of the
 /// value and of the gradient magnitude: 25% and 10% less time; bench/RESULTS.md run 46).
+/// [`crate::parallel::render_volume`] renders from the copy only without a skip grid.
 ///
 /// ```
 /// use rnd_std::volume_io::padding_pays;
@@ -247,17 +248,13 @@ impl VolumeBuf {
         self.vox.view()
     }
 
-    /// The view to render with `kernel`: the same samples, from a copy with padded rows
+    /// A view to render with `kernel`: the same samples, from a copy with padded rows
     /// ([`Volume::padded`]) when [`padding_pays`] (made on `threads` threads at the first
     /// such call and kept for the next; not when [`VolumeBuf::set_padding`] turned it off or memory is
     /// short). Either view renders the same bits.
     pub fn render_view(&self, kernel: KernelName, threads: usize) -> AnyVolume<'_> {
         let view = self.view();
-        let bytes = match view {
-            AnyVolume::F32(_) => 4,
-            AnyVolume::I16(_) => 2,
-        };
-        if !self.padded.on || !padding_pays(view.sizes(), bytes, kernel.support()) {
+        if !self.pads(kernel) {
             return view;
         }
         let copy = self.padded.copy.get_or_init(|| match view {
@@ -271,6 +268,22 @@ impl VolumeBuf {
             None => return view,
         };
         padded.unwrap_or(view)
+    }
+
+    /// Whether [`VolumeBuf::render_view`] renders with `kernel` from a padded copy
+    /// (padding on, and [`padding_pays`]).
+    pub fn pads(&self, kernel: KernelName) -> bool {
+        let bytes = match self.view() {
+            AnyVolume::F32(_) => 4,
+            AnyVolume::I16(_) => 2,
+        };
+        self.padded.on && padding_pays(self.sizes(), bytes, kernel.support())
+    }
+
+    /// Whether a padded copy has been made (for tests).
+    #[doc(hidden)]
+    pub fn has_padded_copy(&self) -> bool {
+        matches!(self.padded.copy.get(), Some(Some(_)))
     }
 
     /// Whether renders may use a copy with padded rows ([`VolumeBuf::render_view`];

@@ -194,9 +194,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            used in place through a memory map of the file (no copy): do not change the \
            file while it renders, or set RENDR_MMAP=0 to read it into memory instead. \
            A volume of 16 MiB or more whose rows are a multiple of 512 bytes long, \
-           rendered with a kernel of support 3 or more, is rendered from a copy with \
-           padded rows (the same image; such rows share the cache's sets); RENDR_PAD=0 \
-           renders it as it is.",
+           rendered with a kernel of support 3 or more and no skip grid, is rendered \
+           from a copy with padded rows (the same image; such rows share the cache's \
+           sets); RENDR_PAD=0 renders it as it is.",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
