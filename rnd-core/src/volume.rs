@@ -9,8 +9,8 @@ use crate::voxel::Voxel;
 
 /// A 3-D scalar volume: samples stored fast-to-slow (`i + r*(j + s1*k)`, where the row
 /// stride `r` is the fast axis's size `s0`, or more for a [`Volume::padded`] volume),
-/// borrowed from the caller, plus the index-to-world transform: sample (i, j, k) sits at world point
-/// `itow · (i, j, k, 1)` (the sample is at the centre of its cell; index positions run
+/// borrowed from the caller, plus the index-to-world transform: sample (i, j, k) sits at
+/// world point `itow · (i, j, k, 1)` (the sample is at the centre of its cell; index positions run
 /// from 0 to size − 1 along each axis).
 ///
 /// ```
@@ -106,18 +106,34 @@ impl<'a, V: Voxel> Volume<'a, V> {
     /// assert_eq!((vol.at(1, 1, 1), vol.row_stride()), (7, 3));
     /// assert_eq!(vol.min_max(), (0.0, 7.0));
     /// assert!(Volume::padded(&data, [2, 2, 2], 1, Affine4::IDENTITY).is_err());
+    /// assert!(Volume::padded(&data, [0, 2, 2], 3, Affine4::IDENTITY).is_err());
+    /// assert!(Volume::padded(&data[..11], [2, 2, 2], 3, Affine4::IDENTITY).is_err());
     /// ```
     ///
     /// # Errors
-    /// As [`Volume::new`] (the data length is `row * sizes[1] * sizes[2]`), and when
+    /// As [`Volume::new`] (the data length being `row * sizes[1] * sizes[2]`), and when
     /// `row < sizes[0]`.
     pub fn padded(data: &'a [V], sizes: [usize; 3], row: usize, itow: Affine4) -> Result<Self> {
-        if row < sizes[0] {
+        if sizes.contains(&0) || row < sizes[0] {
             return Err(Error::new(
                 ErrorKind::Volume,
                 alloc::format!(
-                    "row stride {row} is shorter than a row ({} samples)",
+                    "a volume of sizes {sizes:?} cannot have rows {row} samples apart \
+                     (an empty axis, or rows shorter than {} samples)",
                     sizes[0]
+                ),
+            ));
+        }
+        let n = row
+            .checked_mul(sizes[1])
+            .and_then(|x| x.checked_mul(sizes[2]));
+        if n != Some(data.len()) {
+            return Err(Error::new(
+                ErrorKind::Volume,
+                alloc::format!(
+                    "a volume of sizes {sizes:?} with rows {row} samples apart needs {n:?} \
+                     samples but {} were given",
+                    data.len()
                 ),
             ));
         }
