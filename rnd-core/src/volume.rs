@@ -46,20 +46,36 @@ impl<'a, V: Voxel> Volume<'a, V> {
     /// [`ErrorKind::Volume`] when a size is 0, the data length does not match, or `itow`
     /// is not an invertible affine matrix.
     pub fn new(data: &'a [V], sizes: [usize; 3], itow: Affine4) -> Result<Self> {
+        Self::with_rows(data, sizes, sizes[0], itow)
+    }
+
+    /// [`Volume::new`] with rows `row` samples apart ([`Volume::padded`]).
+    fn with_rows(data: &'a [V], sizes: [usize; 3], row: usize, itow: Affine4) -> Result<Self> {
         if sizes.contains(&0) {
             return Err(Error::new(
                 ErrorKind::Volume,
                 alloc::format!("volume has an empty axis (sizes {sizes:?})"),
             ));
         }
-        let n = sizes[0]
+        if row < sizes[0] {
+            return Err(Error::new(
+                ErrorKind::Volume,
+                alloc::format!("rows {row} samples apart are shorter than a row ({sizes:?})"),
+            ));
+        }
+        let n = row
             .checked_mul(sizes[1])
             .and_then(|x| x.checked_mul(sizes[2]));
         if n != Some(data.len()) {
+            let rows = if row == sizes[0] {
+                alloc::string::String::new()
+            } else {
+                alloc::format!(" with rows {row} samples apart")
+            };
             return Err(Error::new(
                 ErrorKind::Volume,
                 alloc::format!(
-                    "volume sizes {} {} {} need {:?} samples but {} were given",
+                    "volume sizes {} {} {}{rows} need {:?} samples but {} were given",
                     sizes[0],
                     sizes[1],
                     sizes[2],
@@ -83,7 +99,7 @@ impl<'a, V: Voxel> Volume<'a, V> {
         Ok(Volume {
             data,
             sizes,
-            row: sizes[0],
+            row,
             origin: [0; 3],
             grid: sizes,
             itow,
@@ -114,32 +130,7 @@ impl<'a, V: Voxel> Volume<'a, V> {
     /// As [`Volume::new`] (the data length being `row * sizes[1] * sizes[2]`), and when
     /// `row < sizes[0]`.
     pub fn padded(data: &'a [V], sizes: [usize; 3], row: usize, itow: Affine4) -> Result<Self> {
-        if sizes.contains(&0) || row < sizes[0] {
-            return Err(Error::new(
-                ErrorKind::Volume,
-                alloc::format!(
-                    "a volume of sizes {sizes:?} cannot have rows {row} samples apart \
-                     (an empty axis, or rows shorter than {} samples)",
-                    sizes[0]
-                ),
-            ));
-        }
-        let n = row
-            .checked_mul(sizes[1])
-            .and_then(|x| x.checked_mul(sizes[2]));
-        if n != Some(data.len()) {
-            return Err(Error::new(
-                ErrorKind::Volume,
-                alloc::format!(
-                    "a volume of sizes {sizes:?} with rows {row} samples apart needs {n:?} \
-                     samples but {} were given",
-                    data.len()
-                ),
-            ));
-        }
-        let mut v = Volume::new(data, [row, sizes[1], sizes[2]], itow)?;
-        (v.sizes, v.grid) = (sizes, sizes);
-        Ok(v)
+        Self::with_rows(data, sizes, row, itow)
     }
 
     /// Wraps `data`, the samples of the box `region` of a grid of `grid` samples whose
