@@ -124,7 +124,8 @@ pub const PAD_MIN_BYTES: usize = 16 << 20;
 /// 512-sample short row: every few rows fall into the same cache sets, so a ray's
 /// supports evict each other), rendered with a kernel of support 3 or more (box and
 /// tent read too few rows to gain). Measured on a 256³ float volume (bspln3 MIPs of the
-/// value and of the gradient magnitude: 25% and 10% less time; bench/RESULTS.md run 46).
+/// value and of the gradient magnitude: a quarter and a sixth less render time;
+/// bench/RESULTS.md run 46).
 /// [`crate::parallel::render_volume`] renders from the copy only without a skip grid.
 ///
 /// ```
@@ -182,13 +183,17 @@ impl PartialEq for KeptPadded {
 
 /// `vol`'s samples with [`ROW_PAD_BYTES`] after each row (each row's last sample
 /// repeated), and the row stride, copied on up to `threads` threads (a share of the
-/// slices each); None when memory is short.
+/// slices each); None when memory is short: the copy is an optimization, so it is not
+/// made when it would take more than a quarter of what this process may hold
+/// ([`crate::mem_limit`]) or the system refuses it.
 fn pad_rows<V: Voxel>(vol: &Volume<'_, V>, threads: usize) -> Option<(Vec<V>, usize)> {
     let [s0, s1, s2] = vol.sizes();
     let row = s0 + ROW_PAD_BYTES / std::mem::size_of::<V>();
     let n = row.checked_mul(s1)?.checked_mul(s2)?;
     let bytes = (n as u64).saturating_mul(std::mem::size_of::<V>() as u64);
-    crate::check_memory(bytes, "a padded copy of the volume").ok()?;
+    if crate::mem_limit().is_some_and(|lim| bytes > lim / 4) {
+        return None;
+    }
     let mut out = Vec::new();
     out.try_reserve_exact(n).ok()?;
     crate::mapped::prefer_huge_pages(&mut out);
@@ -250,8 +255,8 @@ impl VolumeBuf {
 
     /// A view to render with `kernel`: the same samples, from a copy with padded rows
     /// ([`Volume::padded`]) when [`padding_pays`] (made on `threads` threads at the first
-    /// such call and kept for the next; not when [`VolumeBuf::set_padding`] turned it off or memory is
-    /// short). Either view renders the same bits.
+    /// such call and kept for the next; not when [`VolumeBuf::set_padding`] turned it
+    /// off or memory is short). Either view renders the same bits.
     pub fn render_view(&self, kernel: KernelName, threads: usize) -> AnyVolume<'_> {
         let view = self.view();
         if !self.pads(kernel) {
