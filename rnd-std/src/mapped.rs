@@ -132,32 +132,3 @@ pub(crate) unsafe fn samples<T: Plain>(m: &std::sync::Arc<Mapping>) -> Option<&'
     // a T (`Plain`), and the map stays while the caller uses the slice (its contract).
     Some(unsafe { std::slice::from_raw_parts(b.as_ptr() as *const T, b.len() / size) })
 }
-
-/// Asks the system to back the spare capacity of `v` with huge pages (Linux; elsewhere
-/// nothing): a large buffer about to be filled then takes a five-hundredth of the page
-/// faults (a 64 MiB copy measured 27 ms with small pages, 7.5 ms with huge ones). Only
-/// a hint: the contents and the mapping are unchanged, and a refusal changes nothing.
-pub(crate) fn prefer_huge_pages<T>(v: &mut Vec<T>) {
-    #[cfg(target_os = "linux")]
-    {
-        const HUGE: usize = 2 << 20;
-        let start = v.as_mut_ptr() as usize;
-        let bytes = v.capacity().saturating_mul(std::mem::size_of::<T>());
-        let (Some(end), Some(a)) = (
-            start.checked_add(bytes),
-            start.checked_next_multiple_of(HUGE),
-        ) else {
-            return;
-        };
-        let e = end / HUGE * HUGE;
-        if e > a {
-            // SAFETY: [a, e) lies inside `v`'s allocation (its capacity, whole huge pages
-            // within it), which `v` owns; MADV_HUGEPAGE only changes how the kernel backs
-            // those pages, never their contents or their mapping. Its result is ignored:
-            // refused, the pages stay small.
-            unsafe { libc::madvise(a as *mut libc::c_void, e - a, libc::MADV_HUGEPAGE) };
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = v;
-}
