@@ -203,8 +203,9 @@ fn pad_rows<V: Voxel>(vol: &Volume<'_, V>, threads: usize) -> Option<(Vec<V>, us
         for (t, part) in dst.chunks_mut(per * row * s1).enumerate() {
             scope.spawn(move || {
                 for (j, d) in part.chunks_mut(row).enumerate() {
-                    let at = (t * per * s1 + j) / s1 * sstride
-                        + (t * per * s1 + j) % s1 * vol.row_stride();
+                    // Row `g` of the volume: row g % s1 of slice g / s1.
+                    let g = t * per * s1 + j;
+                    let at = g / s1 * sstride + g % s1 * vol.row_stride();
                     let r = &src[at..at + s0];
                     let (head, pad) = d.split_at_mut(s0);
                     for (d, &x) in head.iter_mut().zip(r) {
@@ -284,9 +285,9 @@ impl VolumeBuf {
         self.padded.on && padding_pays(self.sizes(), bytes, kernel.support())
     }
 
-    /// Whether a padded copy has been made (for tests).
-    #[doc(hidden)]
-    pub fn has_padded_copy(&self) -> bool {
+    /// Whether a padded copy has been made.
+    #[cfg(test)]
+    pub(crate) fn has_padded_copy(&self) -> bool {
         matches!(self.padded.copy.get(), Some(Some(_)))
     }
 
