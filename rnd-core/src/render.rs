@@ -174,11 +174,20 @@ pub struct RenderSpec<'a> {
     /// Corrected LUT opacities for one exponent, when every ray shares it (orthographic
     /// cameras without Levoy opacity).
     pub(crate) alpha_table: Option<(f32, Vec<f32>)>,
-    /// ln(1 − α) of each LUT entry's clamped opacity (f64 arithmetic).
-    pub(crate) ln_transparency: Vec<f64>,
-    /// The f32 camera of the reference arithmetic.
-    pub(crate) ref_cam: RefCamera,
+    /// What only the chosen arithmetic needs, prepared once.
+    pub(crate) arith: Prepared,
     pub(crate) simd: Simd,
+}
+
+/// What one arithmetic prepares once per render, beyond what both do in their own
+/// rounding (the world lights, the opacity table): the other's is never made.
+#[derive(Debug, Clone)]
+pub(crate) enum Prepared {
+    /// The reference arithmetic: its f32 camera.
+    Reference(RefCamera),
+    /// The f64 arithmetic: ln(1 − α) of each LUT entry's clamped opacity (empty
+    /// without a LUT, or for one of over 2^20 entries: then computed per sample).
+    F64(Vec<f64>),
 }
 
 fn rerr(param: Param, msg: alloc::string::String) -> Error {
@@ -308,8 +317,8 @@ impl<'a> RenderSpec<'a> {
         let lut_by_value = lut.is_some_and(Lut::by_value);
         let value_opacity = params.blend == Blend::Over && levoy.is_none() && lut_by_value;
         let channels = params.probe.length() + usize::from(params.time);
-        let ref_cam = RefCamera::new(&params.camera);
-        let lights = if params.reference {
+        let ref_cam = params.reference.then(|| RefCamera::new(&params.camera));
+        let lights = if let Some(ref_cam) = &ref_cam {
             if !ref_cam.is_finite() {
                 return Err(rerr(
                     Param::Reference,
@@ -377,36 +386,36 @@ impl<'a> RenderSpec<'a> {
             kmax,
             depth_cue,
             alpha_table: None,
-            ln_transparency: Vec::new(),
-            ref_cam,
+            arith: match ref_cam {
+                Some(c) => Prepared::Reference(c),
+                None => Prepared::F64(match lut {
+                    Some(lut) if lut.entries().len() <= 1 << 20 => lut
+                        .entries()
+                        .iter()
+                        .map(|e| ln_transparency(e[3].clamp(0.0, 1.0)))
+                        .collect(),
+                    _ => Vec::new(),
+                }),
+            },
             simd,
         };
-        if let (Some(lut), false) = (lut, spec.params.reference) {
-            if lut.entries().len() <= 1 << 20 {
-                spec.ln_transparency = lut
-                    .entries()
-                    .iter()
-                    .map(|e| ln_transparency(e[3].clamp(0.0, 1.0)))
-                    .collect();
-            }
-        }
         // Orthographic rays all step the same length, so the corrected opacity of each
         // LUT entry can be computed once (not for Levoy, which scales alpha per sample).
         if let (Some(lut), None, true) = (lut, levoy, spec.camera.spec.orthographic) {
             if lut.entries().len() <= 1 << 16 {
                 let entries = lut.entries().iter();
-                spec.alpha_table = Some(if spec.params.reference {
-                    let ex = spec
-                        .ref_cam
-                        .ray(0, 0, spec.plane_sep() as f32, spec.params.unit_step as f32)
-                        .alpha_exp;
-                    (
-                        ex,
-                        entries.map(|e| refarith::correct_alpha(e[3], ex)).collect(),
-                    )
-                } else {
-                    let ex = spec.ray_geom(0, 0).alpha_exp;
-                    (ex, entries.map(|e| correct_alpha(e[3], ex)).collect())
+                spec.alpha_table = Some(match &spec.arith {
+                    Prepared::Reference(c) => {
+                        let ray =
+                            c.ray(0, 0, spec.plane_sep() as f32, spec.params.unit_step as f32);
+                        let ex = ray.alpha_exp;
+                        let table = entries.map(|e| refarith::correct_alpha(e[3], ex));
+                        (ex, table.collect())
+                    }
+                    Prepared::F64(_) => {
+                        let ex = spec.ray_geom(0, 0).alpha_exp;
+                        (ex, entries.map(|e| correct_alpha(e[3], ex)).collect())
+                    }
                 });
             }
         }
@@ -688,26 +697,29 @@ impl<'a> RenderSpec<'a> {
             self.skip_kind()
                 .is_some_and(|kind| g.fits(kind, K::NAME, sizes))
         });
-        if self.params.reference {
-            let mut a = Reference::<V, K, S>::new(
-                vol,
-                self.simd,
-                &self.ref_cam,
-                self.plane_sep() as f32,
-                self.params.unit_step as f32,
-            );
-            a.value = traced || !matches!(self.params.probe, Probe::GradMag | Probe::GradVec);
-            f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
-        } else {
-            let a = F64::<V, K, S>::new(
-                vol,
-                self.simd,
-                &self.camera,
-                self.plane_sep(),
-                self.params.unit_step,
-                &self.ln_transparency,
-            );
-            f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
+        match &self.arith {
+            Prepared::Reference(cam) => {
+                let mut a = Reference::<V, K, S>::new(
+                    vol,
+                    self.simd,
+                    cam,
+                    self.plane_sep() as f32,
+                    self.params.unit_step as f32,
+                );
+                a.value = traced || !matches!(self.params.probe, Probe::GradMag | Probe::GradVec);
+                f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
+            }
+            Prepared::F64(ln_transparency) => {
+                let a = F64::<V, K, S>::new(
+                    vol,
+                    self.simd,
+                    &self.camera,
+                    self.plane_sep(),
+                    self.params.unit_step,
+                    ln_transparency,
+                );
+                f(&march::<_, K, S>(self, a, skip, sizes, org, own, reach))
+            }
         }
     }
 
