@@ -650,9 +650,10 @@ impl<'a> RenderSpec<'a> {
     /// `[h0, h1] × [v0, v1]` holding the image ([`Camera::reach`]) of the box of index
     /// positions where a support can be inside (one voxel beyond the samples on every
     /// side, for every kernel), widened by 2 voxels plus 10⁻⁴ of the magnitudes the
-    /// arithmetics compute ray positions from (far more than either rounds by), then by
-    /// a pixel. None when no bounded rectangle holds it (a perspective camera inside or
-    /// beside the box).
+    /// arithmetics compute ray positions from (far more than either rounds by), and by
+    /// as far as the arithmetic's own camera frame can move a sample from where the f64
+    /// camera puts it ([`RenderSpec::frame_slack`]), then by a pixel. None when no
+    /// bounded rectangle holds it (a perspective camera inside or beside the box).
     pub(crate) fn reach<V: Voxel>(&self, vol: &Volume<'_, V>) -> Option<[f64; 4]> {
         let cam = &self.camera;
         let m = &vol.wtoi().m;
@@ -665,7 +666,13 @@ impl<'a> RenderSpec<'a> {
         let (org, sz) = (vol.origin(), vol.sizes());
         let end = |a: usize| (org[a] + sz[a]) as f64;
         let index = end(0).max(end(1)).max(end(2));
-        let margin = 2.0 + 1e-4 * (norm * world + shift + index);
+        // A view-space position has |x| + |y| + |z| at most `reach_view`; a frame off by
+        // `slack` per component moves it by at most 3 slack that much (world units).
+        let depth = cam.ncv.abs().max(cam.fcv.abs());
+        let reach_view = depth * (1.0 + (cam.wdth + cam.hght).abs() / (2.0 * cam.d))
+            + (cam.wdth + cam.hght).abs();
+        let frame = 3.0 * self.frame_slack() * reach_view * norm;
+        let margin = 2.0 + 1e-4 * (norm * world + shift + index) + frame;
         let corners: [[f64; 3]; 8] = core::array::from_fn(|c| {
             vol.itow().point(core::array::from_fn(|a| {
                 if c >> a & 1 == 1 {
@@ -677,6 +684,22 @@ impl<'a> RenderSpec<'a> {
         });
         let r = cam.reach(&corners)?;
         Some([r[0] - 1.0, r[1] + 1.0, r[2] - 1.0, r[3] + 1.0])
+    }
+
+    /// How far, per component, the chosen arithmetic's camera frame (u, v, n) lies from
+    /// the f64 camera's: 0 for the f64 arithmetic. The reference computes its frame in
+    /// f32, the course program's way: usually within a few ulps, but an up vector nearly
+    /// along the view, or one whose cross product overflows f32 (its frame then has zero
+    /// axes, every ray the central one), puts its rays elsewhere.
+    fn frame_slack(&self) -> f64 {
+        let Prepared::Reference(rc) = &self.arith else {
+            return 0.0;
+        };
+        let c = &self.camera;
+        [(rc.u, c.u), (rc.v, c.v), (rc.n, c.n)]
+            .iter()
+            .flat_map(|(a, b)| (0..3).map(move |i| (f64::from(a[i]) - b[i]).abs()))
+            .fold(0.0, f64::max)
     }
 
     /// Runs `f` with the loop over `vol` in the spec's arithmetic (casting the stretches

@@ -1454,3 +1454,142 @@ mod classify {
         }
     }
 }
+
+/// Every pixel of `spec` over `vol` with kernel `k`, four ways: `render` (whose rows skip
+/// the rays it reckons miss the volume), each ray through the batched and the one-sample
+/// loop untraced, and through the one-sample loop traced (which casts every ray whole).
+fn four_ways(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> [Vec<f32>; 4] {
+    let [w, h] = spec.size();
+    let len = spec.params().probe.length();
+    let img = rnd_core::render::render(spec, vol, k).unwrap();
+    let mut out = [img, Vec::new(), Vec::new(), Vec::new()];
+    for px in 0..w * h {
+        let mut r = [[0.0f32; MAX_CHANNELS]; 3];
+        spec.cast(
+            vol,
+            k,
+            px % w,
+            px / w,
+            &mut r[0][..len],
+            Loop::Batched,
+            None,
+        );
+        spec.cast(
+            vol,
+            k,
+            px % w,
+            px / w,
+            &mut r[1][..len],
+            Loop::OneSample,
+            None,
+        );
+        let mut ignore = |_: &SampleInfo| {};
+        let trace = Some(&mut ignore as &mut dyn FnMut(&SampleInfo));
+        spec.cast(
+            vol,
+            k,
+            px % w,
+            px / w,
+            &mut r[2][..len],
+            Loop::OneSample,
+            trace,
+        );
+        for (o, x) in out[1..].iter_mut().zip(&r) {
+            o.extend_from_slice(&x[..len]);
+        }
+    }
+    out
+}
+
+/// The reference arithmetic builds its camera frame in f32, as the course program does.
+/// An up vector whose cross product with the view overflows f32 leaves that frame with
+/// zero axes (every ray the central one), and one nearly along the view turns it: its
+/// rays then meet the volume through pixels the f64 camera would not send them through.
+/// The rays the renderer leaves uncast as missing the volume must miss it in the
+/// arithmetic's own frame (found by the render fuzz target: corner pixels were left at
+/// the outside value while their rays, cast whole, blended samples).
+#[test]
+fn rays_left_uncast_miss_the_volume_in_the_reference_frame() {
+    let data: Vec<f32> = (0..6 * 7 * 8)
+        .map(|i| ((i * 37) % 11) as f32 / 10.0)
+        .collect();
+    let itow = Affine4::from_columns(
+        [0.5, 0.0, 0.1],
+        [0.0, 0.4, 0.0],
+        [0.0, 0.1, 0.3],
+        [-1.0, -1.0, -1.0],
+    );
+    let vol = AnyVolume::F32(Volume::new(&data, [6, 7, 8], itow).unwrap());
+    // A long thin volume, whose image a turned frame moves to other pixels.
+    let long: Vec<f32> = (0..24 * 6 * 6)
+        .map(|i| ((i * 37) % 11) as f32 / 10.0)
+        .collect();
+    let diag = Affine4::from_columns(
+        [0.5, 0.0, 0.0],
+        [0.0, 0.4, 0.0],
+        [0.0, 0.0, 0.3],
+        [-1.0, -1.0, -1.0],
+    );
+    let long = AnyVolume::F32(Volume::new(&long, [24, 6, 6], diag).unwrap());
+    let cameras = [
+        // The fuzz target's input: up's cross product overflows f32.
+        CameraSpec {
+            from: [-9.005, 5.719, -9.202],
+            at: [-0.434, 1.382, 0.0],
+            up: [8.492, -3.733, 4.857852309139532e19],
+            near: 0.278,
+            far: 9.988,
+            fov: 28.52,
+            size: [6, 2],
+            orthographic: false,
+        },
+        // Up nearly along the view: valid in f64, its frame turned in f32 (the cross
+        // product of nearly parallel vectors is all rounding there).
+        CameraSpec {
+            from: [
+                4.75 + 12.0 * 0.2822 + 2e-7,
+                -0.4 + 12.0 * 0.3763,
+                -0.55 + 12.0 * 0.9407,
+            ],
+            at: [4.75, -0.4, -0.55],
+            up: [0.2822, 0.3763, 0.9407],
+            near: -7.0,
+            far: 7.0,
+            fov: 60.0,
+            size: [12, 12],
+            orthographic: false,
+        },
+    ];
+    for (i, (camera, vol)) in cameras.into_iter().zip([vol, long]).enumerate() {
+        let rc = rnd_core::refarith::RefCamera::new(&camera);
+        let c = rnd_core::camera::Camera::new(camera).unwrap();
+        let turn = (0..3)
+            .map(|a| (f64::from(rc.u[a]) - c.u[a]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            turn > 0.5,
+            "camera {i}: the f32 frame lies near the f64 one ({turn})"
+        );
+        if i == 0 {
+            assert_eq!(rc.u, [0.0; 3], "the f32 frame of camera 0 is degenerate");
+        }
+        for (probe, blend) in [(Probe::Value, Blend::Sd), (Probe::Value, Blend::Max)] {
+            let mut p = RenderParams::new(camera);
+            (p.plane_sep, p.probe, p.blend, p.outside) = (0.0857, probe, blend, 8.86);
+            p.reference = true;
+            let spec = RenderSpec::new(p, None, None, &[]).unwrap();
+            for k in [KernelName::Zero, KernelName::Tent, KernelName::Bspln3] {
+                let [img, batched, one, traced] = four_ways(&spec, vol, k);
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                let what = format!("camera {i}, {probe} {blend}, {k}");
+                assert!(
+                    traced.iter().any(|&x| x != 8.86),
+                    "{what}: no ray meets the volume"
+                );
+                assert_eq!(bits(&img), bits(&traced), "{what}: render vs traced");
+                assert_eq!(bits(&batched), bits(&traced), "{what}: batched vs traced");
+                assert_eq!(bits(&one), bits(&traced), "{what}: one-sample vs traced");
+            }
+        }
+    }
+}
