@@ -89,3 +89,24 @@ fn replay_formats() {
         v.len()
     );
 }
+
+/// An RLE Lossless DICOM whose segment decodes to fewer bytes than Rows x Columns (found
+/// by the formats target: `dicom-pixeldata`'s decoder indexed past it and panicked) is
+/// an error naming the file, the frame and the segment.
+#[test]
+fn rle_segment_that_decodes_short_is_an_error() {
+    let src = rnd_tests::root().join("fuzz/corpus/formats/regressions/crash-rle-short-segment");
+    let dir = rnd_tests::tmpdir("rle-short");
+    let file = dir.join("volume");
+    std::fs::copy(&src, &file).unwrap();
+    let m = match rnd_std::formats::read(&file, 1) {
+        Ok(_) => panic!("{} loaded", src.display()),
+        Err(e) => e.to_string(),
+    };
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        m.contains("volume")
+            && m.contains("frame 0: segment 0 decodes to 36 bytes, fewer than Rows x Columns (42)"),
+        "{m}"
+    );
+}

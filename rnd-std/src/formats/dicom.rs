@@ -655,6 +655,107 @@ fn geometry(frames: &mut [Frame]) -> Result<Placed> {
     Ok((dirs, frames[0].pos, notes))
 }
 
+/// The RLE Lossless transfer syntax.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// RLE Lossless pixel data of `o`, checked before `dicom-pixeldata` decodes it: its
+/// decoder trusts the fragments' headers and the segments' decoded lengths (a fragment
+/// shorter than its 64-byte header, a segment count past it, or a segment that decodes
+/// to fewer than Rows x Columns bytes makes it panic or allocate by the count), so
+/// those are errors here.
+fn check_rle(o: &InMemDicomObject) -> Result<()> {
+    let bad = |m: String| Err(Error::msg(format!("RLE pixel data: {m}")));
+    let (Some(rows), Some(cols), Some(bits)) = (
+        int(o, tags::ROWS, "Rows")?,
+        int(o, tags::COLUMNS, "Columns")?,
+        int(o, tags::BITS_ALLOCATED, "BitsAllocated")?,
+    ) else {
+        // The decoder refuses an image without them.
+        return Ok(());
+    };
+    let spp = int(o, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel")?.unwrap_or(1);
+    let (Ok(rows), Ok(cols), Ok(spp)) = (
+        u16::try_from(rows),
+        u16::try_from(cols),
+        usize::try_from(spp),
+    ) else {
+        return bad(format!(
+            "Rows {rows}, Columns {cols} or SamplesPerPixel {spp} out of range"
+        ));
+    };
+    let plane = usize::from(rows) * usize::from(cols);
+    let segments = spp.saturating_mul(usize::try_from(bits / 8).unwrap_or(0));
+    let Some(dicom_core::DicomValue::PixelSequence(seq)) =
+        elem(o, tags::PIXEL_DATA).map(|e| e.value())
+    else {
+        // Not encapsulated: the decoder says so.
+        return Ok(());
+    };
+    for (i, f) in seq.fragments().iter().enumerate() {
+        let word = |j: usize| {
+            f.get(4 * j..4 * j + 4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+        };
+        let Some(n) = word(0).filter(|_| f.len() >= 64) else {
+            return bad(format!(
+                "frame {i}: {} bytes, shorter than the 64-byte RLE header",
+                f.len()
+            ));
+        };
+        if n > 15 || n < segments {
+            return bad(format!(
+                "frame {i}: {n} segments where {segments} are needed (at most 15)"
+            ));
+        }
+        for s in 0..segments {
+            let end = if s + 1 < n {
+                word(s + 2)
+            } else {
+                Some(f.len())
+            };
+            let got = match (word(s + 1), end) {
+                (Some(a), Some(b)) => f.get(a..b).and_then(packbits_len),
+                _ => None,
+            };
+            match got {
+                None => return bad(format!("frame {i}: segment {s} lies outside its fragment or is cut short")),
+                Some(g) if g < plane => {
+                    return bad(format!(
+                        "frame {i}: segment {s} decodes to {g} bytes, fewer than Rows x Columns ({plane})"
+                    ))
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// How many bytes PackBits data decodes to, as `dicom-pixeldata`'s RLE reader decodes
+/// it (a literal run cut short by the end counts what is there); None when a replicate
+/// run lacks its byte.
+fn packbits_len(seg: &[u8]) -> Option<usize> {
+    let (mut i, mut out) = (0usize, 0usize);
+    while i < seg.len() {
+        let h = seg[i] as i8;
+        i += 1;
+        match h {
+            -128 => {}
+            -127..=-1 => {
+                seg.get(i)?;
+                i += 1;
+                out += (1 - isize::from(h)) as usize;
+            }
+            _ => {
+                let n = h as usize + 1;
+                out += n.min(seg.len() - i);
+                i += n;
+            }
+        }
+    }
+    Some(out)
+}
+
 /// The stored pixel values of every frame, in order, in their own type.
 fn pixels(frames: &[Frame], l: &Layout) -> Result<Data> {
     let per = (l.rows as usize) * (l.cols as usize);
@@ -685,6 +786,9 @@ fn pixels(frames: &[Frame], l: &Layout) -> Result<Data> {
         }
         let (_, obj) = open.as_ref().expect("opened above");
         let ts = obj.meta().transfer_syntax().trim_end_matches('\0');
+        if ts == RLE_LOSSLESS {
+            check_rle(obj).map_err(|e| e.with_path(&f.file))?;
+        }
         let dec = obj.decode_pixel_data().map_err(|e| {
             Error::at(
                 &f.file,
@@ -736,4 +840,23 @@ pub(super) fn input_files(path: &Path) -> Vec<PathBuf> {
         None
     };
     dir.and_then(|d| series_files(d).ok()).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::packbits_len;
+
+    /// PackBits lengths as the RLE decoder counts them: literal runs (h >= 0: h + 1
+    /// bytes, cut short by the end), replicate runs (h < 0: 1 − h copies of one byte),
+    /// the no-op −128; a replicate run without its byte is None.
+    #[test]
+    fn packbits_lengths() {
+        assert_eq!(packbits_len(&[]), Some(0));
+        assert_eq!(packbits_len(&[2, 7, 8, 9]), Some(3));
+        assert_eq!(packbits_len(&[2, 7]), Some(1));
+        assert_eq!(packbits_len(&[0xFD, 5]), Some(4));
+        assert_eq!(packbits_len(&[0x81, 5, 0, 1]), Some(129));
+        assert_eq!(packbits_len(&[0x80, 0x80, 1, 4, 4]), Some(2));
+        assert_eq!(packbits_len(&[1, 3, 4, 0xFF]), None);
+    }
 }
