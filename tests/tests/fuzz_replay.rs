@@ -90,13 +90,13 @@ fn replay_formats() {
     );
 }
 
-/// An RLE Lossless DICOM whose segment decodes to fewer bytes than Rows x Columns (found
-/// by the formats target: `dicom-pixeldata`'s decoder indexed past it and panicked) is
-/// an error naming the file, the frame and the segment.
-#[test]
-fn rle_segment_that_decodes_short_is_an_error() {
-    let src = rnd_tests::root().join("fuzz/corpus/formats/regressions/crash-rle-short-segment");
-    let dir = rnd_tests::tmpdir("rle-short");
+/// The error reading the kept formats regression `name`, alone in a folder as
+/// `volume` (as the fuzz target reads it).
+fn formats_error(name: &str) -> String {
+    let src = rnd_tests::root()
+        .join("fuzz/corpus/formats/regressions")
+        .join(name);
+    let dir = rnd_tests::tmpdir(&format!("formats-error-{name}"));
     let file = dir.join("volume");
     std::fs::copy(&src, &file).unwrap();
     let m = match rnd_std::formats::read(&file, 1) {
@@ -104,9 +104,31 @@ fn rle_segment_that_decodes_short_is_an_error() {
         Err(e) => e.to_string(),
     };
     std::fs::remove_dir_all(&dir).unwrap();
+    m
+}
+
+/// An RLE Lossless DICOM whose segment decodes to fewer bytes than Rows x Columns (found
+/// by the formats target: `dicom-pixeldata`'s decoder indexed past it and panicked) is
+/// an error naming the file, the frame and the segment.
+#[test]
+fn rle_segment_that_decodes_short_is_an_error() {
+    let m = formats_error("crash-rle-short-segment");
     assert!(
         m.contains("volume")
             && m.contains("frame 0: segment 0 decodes to 36 bytes, fewer than Rows x Columns (42)"),
+        "{m}"
+    );
+}
+
+/// An element with an unknown VR (`ES`) is read by `dicom-encoding` as UN, with a
+/// 4-byte length: here 2.1 GB, which its parser reserved before failing (found by the
+/// formats target, out of memory). The length check reads it the same way and refuses
+/// it before the parser runs.
+#[test]
+fn unknown_vr_lengths_are_bounded_by_the_file() {
+    let m = formats_error("oom-unknown-vr-length");
+    assert!(
+        m.contains("volume") && m.contains("element (0028,1053) claims 2145394737 bytes"),
         "{m}"
     );
 }

@@ -346,21 +346,32 @@ fn check_lengths(path: &Path) -> Result<()> {
             (l, false)
         } else if explicit || in_meta {
             let vr = [b[4], b[5]];
-            let long = matches!(
+            // As `dicom-encoding` reads it: these VRs have a 2-byte length; every
+            // other, an unknown one included (read as UN), 2 reserved bytes and a
+            // 4-byte length.
+            let long = !matches!(
                 &vr,
-                b"OB"
-                    | b"OD"
-                    | b"OF"
-                    | b"OL"
-                    | b"OV"
-                    | b"OW"
-                    | b"SQ"
-                    | b"UC"
-                    | b"UN"
-                    | b"UR"
-                    | b"UT"
-                    | b"SV"
-                    | b"UV"
+                b"AE"
+                    | b"AS"
+                    | b"AT"
+                    | b"CS"
+                    | b"DA"
+                    | b"DS"
+                    | b"DT"
+                    | b"FL"
+                    | b"FD"
+                    | b"IS"
+                    | b"LO"
+                    | b"LT"
+                    | b"PN"
+                    | b"SH"
+                    | b"SL"
+                    | b"SS"
+                    | b"ST"
+                    | b"TM"
+                    | b"UI"
+                    | b"UL"
+                    | b"US"
             );
             let l = if long {
                 let mut x = [0u8; 4];
