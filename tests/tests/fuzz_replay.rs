@@ -132,3 +132,25 @@ fn unknown_vr_lengths_are_bounded_by_the_file() {
         "{m}"
     );
 }
+
+/// A NIfTI-2 header claiming 2 GB of samples over 845 bytes of data (found by the
+/// formats target, out of memory: the whole claim was reserved and its pages mapped
+/// before reading) is an error, and the memory it took grows with the data read.
+#[test]
+fn claimed_sizes_cost_no_memory_before_the_data_arrives() {
+    let m = formats_error("oom-nifti2-claims-2gb");
+    assert!(
+        m.contains("volume")
+            && m.contains("data is truncated: 845 bytes of samples, need 2013237120"),
+        "{m}"
+    );
+    // The process's peak resident memory (Linux), far below the claim.
+    if let Ok(s) = std::fs::read_to_string("/proc/self/status") {
+        let kb: u64 = s
+            .lines()
+            .find_map(|l| l.strip_prefix("VmHWM:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+            .expect("VmHWM in /proc/self/status");
+        assert!(kb < 512 * 1024, "peak resident memory {kb} kB");
+    }
+}

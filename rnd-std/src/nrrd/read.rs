@@ -1597,8 +1597,10 @@ pub(crate) fn read_samples(r: &mut dyn Read, t: ScalarType, e: Endian, n: usize)
         .checked_mul(t.size())
         .ok_or_else(|| Error::msg(format!("{n} samples of {t} overflow")))?;
     check_memory(total, &format!("{n} samples of {t}"))?;
+    // The stream's length is unknown (a gzip stream, a reader): memory grows with the
+    // samples read (`append` doubles it), so a header that claims more than the data
+    // holds costs no more than the data.
     let mut d = from_f64(t, &[]);
-    reserve_all(&mut d, n)?;
     let mut buf = vec![0u8; total.min(1 << 20)];
     let mut done = 0usize;
     while done < total {
