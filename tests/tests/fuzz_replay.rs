@@ -133,6 +133,19 @@ fn unknown_vr_lengths_are_bounded_by_the_file() {
     );
 }
 
+/// A DICOM sequence item whose defined length (942 MB) is far past the end of its
+/// 1.7 kB file (found by the formats target, out of memory: the parser took 2.4 GB
+/// before failing). The length check bounds items and sequences by the file as it
+/// bounds other elements.
+#[test]
+fn item_lengths_are_bounded_by_the_file() {
+    let m = formats_error("oom-item-length");
+    assert!(
+        m.contains("volume") && m.contains("element (FFFE,E000) claims 942669874 bytes"),
+        "{m}"
+    );
+}
+
 /// A NIfTI-2 header claiming 2 GB of samples over 845 bytes of data (found by the
 /// formats target, out of memory: the whole claim was reserved and its pages mapped
 /// before reading) is an error, and the memory it took grows with the data read.

@@ -334,6 +334,12 @@ fn check_lengths(path: &Path) -> Result<()> {
                 u16::from_le_bytes([x[0], x[1]])
             }
         };
+        let too_long = |l: u32, left: u64| {
+            Error::at(
+                path,
+                format!("element ({g:04X},{e:04X}) claims {l} bytes; the file has {left} left"),
+            )
+        };
         let (l, sq) = if g == 0xFFFE {
             // Item and delimiters: a 4-byte length, no VR.
             let l = u32_at(&b[4..]);
@@ -341,7 +347,12 @@ fn check_lengths(path: &Path) -> Result<()> {
                 fragments = false;
             }
             if e != 0xE000 || l == UNDEF || !fragments {
-                continue; // an item's elements follow (or a delimiter)
+                // An item's elements follow (or a delimiter): a defined length holds
+                // them, so it too must fit in the file.
+                if e == 0xE000 && l != UNDEF && u64::from(l) > len - pos {
+                    return Err(too_long(l, len - pos));
+                }
+                continue;
             }
             (l, false)
         } else if explicit || in_meta {
@@ -392,17 +403,11 @@ fn check_lengths(path: &Path) -> Result<()> {
             fragments = (g, e) == (0x7FE0, 0x0010);
             continue;
         }
+        if u64::from(l) > len - pos {
+            return Err(too_long(l, len - pos));
+        }
         if sq {
             continue; // its items follow
-        }
-        if u64::from(l) > len - pos {
-            return Err(Error::at(
-                path,
-                format!(
-                    "element ({g:04X},{e:04X}) claims {l} bytes; the file has {} left",
-                    len - pos
-                ),
-            ));
         }
         if in_meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
             let mut uid = vec![0u8; l as usize];
