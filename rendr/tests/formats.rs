@@ -90,7 +90,7 @@ fn independent_writers_round_trip() {
     let Some((dir, cases)) = write_cases("independent_writers_round_trip") else {
         return;
     };
-    assert!(cases.len() >= 18);
+    assert!(cases.len() >= 19);
     let teem = rnd_tests::teem("independent_writers_round_trip", "teem-unu");
     for c in &cases {
         let v = load_volume(&c.file).unwrap_or_else(|e| panic!("{}: {e}", c.name));

@@ -177,7 +177,8 @@ def dicom_cases():
     from pydicom.dataset import Dataset, FileMetaDataset
     from pydicom.sequence import Sequence
     from pydicom.uid import (ExplicitVRLittleEndian, ImplicitVRLittleEndian, RLELossless,
-                             generate_uid, CTImageStorage, EnhancedCTImageStorage)
+                             DeflatedExplicitVRLittleEndian, generate_uid, CTImageStorage,
+                             EnhancedCTImageStorage)
 
     rng = random.Random(1234)
 
@@ -262,6 +263,9 @@ def dicom_cases():
     # RLE Lossless (decoded by dicom-pixeldata).
     series("dcm-rle", field(np.int16, 1.0, 0.0), (1.0, 1.0), (0.0, 0.0, 0.0),
            r, c, normal * 1.5, 1.0, 0.0, RLELossless, "short")
+    # Deflated explicit VR little endian: the whole data set one deflate stream.
+    series("dcm-deflated", field(np.int16, 1.0, 0.0), (0.75, 0.75), (2.0, -3.0, 5.0),
+           r, c, normal * 1.0, 1.0, 0.0, DeflatedExplicitVRLittleEndian, "short")
     # Axis-aligned, binary fractions: renders like the NRRD (LPS).
     series("dcm-aligned", field(np.int16), (0.25, 0.5), (-8.0, -4.0, 2.0),
            (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), np.array([0.0, 0.0, 2.0]), 1.0, 0.0,

@@ -286,22 +286,105 @@ fn frames_of(path: &Path) -> Result<FileInfo> {
 /// a lying length (up to 4 GiB) would cost that much memory before the read fails; this
 /// walk of the element headers (descending into sequences and items, through the
 /// fragments of encapsulated pixel data) bounds every length by the file's size first.
-/// Deflated data sets are not walked (their lengths are bounded by the inflated size).
+/// A deflated data set is inflated (counted, then walked as a stream): its lengths are
+/// bounded by its inflated size, itself bounded by the memory the process may use.
 fn check_lengths(path: &Path) -> Result<()> {
-    use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
     use std::io::{Read, Seek, SeekFrom};
-    const UNDEF: u32 = 0xFFFF_FFFF;
     let io = |e: std::io::Error| Error::io(path, "can't read", e);
     let f = std::fs::File::open(path).map_err(io)?;
     let len = f.metadata().map_err(io)?.len();
     let mut r = std::io::BufReader::new(f);
     r.seek(SeekFrom::Start(132)).map_err(io)?;
-    let mut pos = 132u64;
-    let (mut explicit, mut big) = (true, false);
-    let mut in_meta = true;
+    let mut w = Walk {
+        pos: 132,
+        len,
+        explicit: true,
+        big: false,
+        in_meta: true,
+        deflated: false,
+        meta_end: None,
+    };
+    walk_lengths(&mut r, &mut w, path, "the file", |r, n| {
+        r.seek_relative(i64::from(n))
+    })?;
+    if !w.deflated {
+        return Ok(());
+    }
+    // The data set after the meta group is one raw deflate stream: its size first (the
+    // stream is read, not kept), then its elements.
+    let inflate = |e: std::io::Error| {
+        Error::at(
+            path,
+            format!("the deflated data set can't be inflated: {e}"),
+        )
+    };
+    r.seek(SeekFrom::Start(w.pos)).map_err(io)?;
+    let size = std::io::copy(
+        &mut flate2::read::DeflateDecoder::new(&mut r),
+        &mut std::io::sink(),
+    )
+    .map_err(inflate)?;
+    crate::check_memory(size, "the inflated data set").map_err(|e| e.with_path(path))?;
+    r.seek(SeekFrom::Start(w.pos)).map_err(io)?;
+    let mut d = std::io::BufReader::new(flate2::read::DeflateDecoder::new(r));
+    let mut wd = Walk {
+        pos: 0,
+        len: size,
+        explicit: true,
+        big: false,
+        in_meta: false,
+        deflated: false,
+        meta_end: None,
+    };
+    walk_lengths(&mut d, &mut wd, path, "the inflated data set", |r, n| {
+        let got = std::io::copy(&mut r.take(u64::from(n)), &mut std::io::sink())?;
+        if got < u64::from(n) {
+            return Err(std::io::ErrorKind::UnexpectedEof.into());
+        }
+        Ok(())
+    })
+}
+
+/// Where a walk of element headers is, and how the elements it reads are encoded.
+struct Walk {
+    /// Byte offset of the reader (in the file, or in the inflated data set).
+    pos: u64,
+    /// Bytes that the file (or the inflated data set) holds.
+    len: u64,
+    explicit: bool,
+    big: bool,
+    /// Still in the file meta group (group 2, explicit little endian).
+    in_meta: bool,
+    /// The meta group names the deflated transfer syntax: the walk stopped where the
+    /// data set starts (`pos`).
+    deflated: bool,
+    /// Where the meta group ends by its group length (0002,0000), as `dicom-object`
+    /// reads it.
+    meta_end: Option<u64>,
+}
+
+/// The walk of [`check_lengths`] over `r` from `w`, `skip` passing over an element's
+/// value; `whole` names what `w.len` measures in messages.
+fn walk_lengths<R: std::io::Read>(
+    r: &mut R,
+    w: &mut Walk,
+    path: &Path,
+    whole: &str,
+    mut skip: impl FnMut(&mut R, u32) -> std::io::Result<()>,
+) -> Result<()> {
+    use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
+    const UNDEF: u32 = 0xFFFF_FFFF;
+    let io = |e: std::io::Error| Error::io(path, "can't read", e);
+    let (len, mut pos) = (w.len, w.pos);
+    let (mut explicit, mut big, mut in_meta) = (w.explicit, w.big, w.in_meta);
     let mut fragments = false;
     let mut b = [0u8; 8];
     while pos + 8 <= len {
+        if w.deflated && w.meta_end.is_some_and(|m| pos >= m) {
+            // The meta group read as `dicom-object` reads it: the data set starts here.
+            w.pos = pos;
+            return Ok(());
+        }
         r.read_exact(&mut b).map_err(io)?;
         pos += 8;
         if in_meta && u16::from_le_bytes([b[0], b[1]]) != 2 {
@@ -337,7 +420,7 @@ fn check_lengths(path: &Path) -> Result<()> {
         let too_long = |l: u32, left: u64| {
             Error::at(
                 path,
-                format!("element ({g:04X},{e:04X}) claims {l} bytes; the file has {left} left"),
+                format!("element ({g:04X},{e:04X}) claims {l} bytes; {whole} has {left} left"),
             )
         };
         let (l, sq) = if g == 0xFFFE {
@@ -409,21 +492,36 @@ fn check_lengths(path: &Path) -> Result<()> {
         if sq {
             continue; // its items follow
         }
-        if in_meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
+        if in_meta && (g, e) == (0x0002, 0x0000) && pos == 140 && l == 4 {
+            // The group length, when first (`dicom-object` requires it there).
+            let mut v = [0u8; 4];
+            r.read_exact(&mut v).map_err(io)?;
+            w.meta_end = Some(pos + 4 + u64::from(u32::from_le_bytes(v)));
+        } else if in_meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
             let mut uid = vec![0u8; l as usize];
             r.read_exact(&mut uid).map_err(io)?;
             let uid = String::from_utf8_lossy(&uid);
             match uid.trim_end_matches(['\0', ' ']) {
                 "1.2.840.10008.1.2" => explicit = false,
                 "1.2.840.10008.1.2.2" => big = true,
-                // Deflated: the rest is compressed; not walked.
-                "1.2.840.10008.1.2.1.99" => return Ok(()),
+                // Deflated: the data set after the meta group is compressed; without
+                // a group length `dicom-object` refuses the file itself.
+                "1.2.840.10008.1.2.1.99" => {
+                    if w.meta_end.is_none() {
+                        return Ok(());
+                    }
+                    w.deflated = true;
+                }
                 _ => {}
             }
         } else {
-            r.seek_relative(i64::from(l)).map_err(io)?;
+            skip(r, l).map_err(io)?;
         }
         pos += u64::from(l);
+    }
+    if w.deflated {
+        // The data set is empty or the meta group's length runs past the file.
+        w.pos = pos;
     }
     Ok(())
 }
@@ -860,7 +958,81 @@ pub(super) fn input_files(path: &Path) -> Vec<PathBuf> {
 
 #[cfg(test)]
 mod tests {
-    use super::packbits_len;
+    use super::{check_lengths, packbits_len};
+
+    /// A Part 10 file: preamble, `DICM`, a meta group (group length first) naming
+    /// transfer syntax `ts`, then `rest`.
+    fn part10(ts: &str, rest: &[u8]) -> Vec<u8> {
+        let short = |e: u16, v: &[u8]| {
+            let mut x = vec![2, 0];
+            x.extend(e.to_le_bytes());
+            x.extend(b"UI");
+            x.extend((v.len() as u16).to_le_bytes());
+            x.extend(v);
+            x
+        };
+        let mut uid = ts.as_bytes().to_vec();
+        if uid.len() % 2 == 1 {
+            uid.push(0);
+        }
+        let body = short(0x10, &uid);
+        let mut f = vec![0u8; 128];
+        f.extend(b"DICM");
+        f.extend([2, 0, 0, 0]);
+        f.extend(b"UL");
+        f.extend(4u16.to_le_bytes());
+        f.extend((body.len() as u32).to_le_bytes());
+        f.extend(body);
+        f.extend(rest);
+        f
+    }
+
+    /// The length walk of a deflated data set: an honest one passes, one whose element
+    /// claims more than the inflated data set holds is refused, and a stream that does
+    /// not inflate is an error saying so.
+    #[test]
+    fn deflated_data_sets_are_walked_inflated() {
+        use std::io::Write;
+        let deflate = |b: &[u8]| {
+            let mut e = flate2::write::DeflateEncoder::new(Vec::new(), Default::default());
+            e.write_all(b).unwrap();
+            e.finish().unwrap()
+        };
+        // (0009,1010) OB with a 4-byte length of 4, then its 4 bytes.
+        let element = |claim: u32| {
+            let mut x = vec![9, 0, 0x10, 0x10];
+            x.extend(b"OB\0\0");
+            x.extend(claim.to_le_bytes());
+            x.extend([1, 2, 3, 4]);
+            x
+        };
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-deflated-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.dcm");
+        let ts = "1.2.840.10008.1.2.1.99";
+        let check = |bytes: Vec<u8>| {
+            std::fs::write(&file, bytes).unwrap();
+            check_lengths(&file).map_err(|e| e.to_string())
+        };
+        assert_eq!(check(part10(ts, &deflate(&element(4)))), Ok(()));
+        let m = check(part10(ts, &deflate(&element(1 << 30)))).unwrap_err();
+        assert!(
+            m.contains(
+                "element (0009,1010) claims 1073741824 bytes; the inflated data set has 4 left"
+            ),
+            "{m}"
+        );
+        // Not compressed: the same element read as deflate data.
+        let m = check(part10(ts, &element(4))).unwrap_err();
+        assert!(m.contains("the deflated data set can't be inflated"), "{m}");
+        // Explicit VR little endian, not deflated: the claim is bounded by the file.
+        let m = check(part10("1.2.840.10008.1.2.1", &element(1 << 30))).unwrap_err();
+        assert!(
+            m.contains("claims 1073741824 bytes; the file has 4 left"),
+            "{m}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     /// PackBits lengths as the RLE decoder counts them: literal runs (h >= 0: h + 1
     /// bytes, cut short by the end), replicate runs (h < 0: 1 − h copies of one byte),
