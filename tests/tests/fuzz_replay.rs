@@ -161,6 +161,19 @@ fn deflated_lengths_are_bounded_by_the_inflated_data_set() {
     );
 }
 
+/// An RLE DICOM whose (0002,0013) is a 14-byte SL in the data set (found by the formats
+/// target: out of memory over a run, 775 MB for this file). The parser reads three
+/// whole numbers and the next header 2 bytes early, there an unknown VR with a 775 MB
+/// length; the walk reads numbers whole as the parser does, and refuses the claim.
+#[test]
+fn values_of_numbers_are_walked_as_the_parser_reads_them() {
+    let m = formats_error("oom-short-value-desync");
+    assert!(
+        m.contains("volume") && m.contains("element (2032,0008) claims 774963226 bytes"),
+        "{m}"
+    );
+}
+
 /// A NIfTI-2 header claiming 2 GB of samples over 845 bytes of data (found by the
 /// formats target, out of memory: the whole claim was reserved and its pages mapped
 /// before reading) is an error, and the memory it took grows with the data read.

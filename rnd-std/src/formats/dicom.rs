@@ -373,6 +373,7 @@ fn walk_lengths<R: std::io::Read>(
     mut skip: impl FnMut(&mut R, u32) -> std::io::Result<()>,
 ) -> Result<()> {
     use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
+    use dicom_core::VR;
     const UNDEF: u32 = 0xFFFF_FFFF;
     let io = |e: std::io::Error| Error::io(path, "can't read", e);
     let (len, mut pos) = (w.len, w.pos);
@@ -385,13 +386,22 @@ fn walk_lengths<R: std::io::Read>(
             w.pos = pos;
             return Ok(());
         }
+        let start = pos;
         r.read_exact(&mut b).map_err(io)?;
         pos += 8;
         if in_meta && u16::from_le_bytes([b[0], b[1]]) != 2 {
             // The data set starts: its encoding follows the transfer syntax.
             in_meta = false;
         }
-        let (g, e) = if big && !in_meta {
+        // As `dicom-object` reads the file: the meta group up to its group length
+        // (explicit little endian, each value read whole), then the data set in the
+        // transfer syntax's encoding, whatever the groups (without a group length, by
+        // the group number; `dicom-object` refuses such a file).
+        let meta = match w.meta_end {
+            Some(m) => start < m,
+            None => in_meta,
+        };
+        let (g, e) = if big && !meta {
             (
                 u16::from_be_bytes([b[0], b[1]]),
                 u16::from_be_bytes([b[2], b[3]]),
@@ -404,14 +414,14 @@ fn walk_lengths<R: std::io::Read>(
         };
         let u32_at = |x: &[u8]| -> u32 {
             let a: [u8; 4] = [x[0], x[1], x[2], x[3]];
-            if big && !in_meta {
+            if big && !meta {
                 u32::from_be_bytes(a)
             } else {
                 u32::from_le_bytes(a)
             }
         };
         let u16_at = |x: &[u8]| -> u16 {
-            if big && !in_meta {
+            if big && !meta {
                 u16::from_be_bytes([x[0], x[1]])
             } else {
                 u16::from_le_bytes([x[0], x[1]])
@@ -423,7 +433,7 @@ fn walk_lengths<R: std::io::Read>(
                 format!("element ({g:04X},{e:04X}) claims {l} bytes; {whole} has {left} left"),
             )
         };
-        let (l, sq) = if g == 0xFFFE {
+        let (l, sq, vr) = if g == 0xFFFE {
             // Item and delimiters: a 4-byte length, no VR.
             let l = u32_at(&b[4..]);
             if e == 0xE0DD {
@@ -437,8 +447,8 @@ fn walk_lengths<R: std::io::Read>(
                 }
                 continue;
             }
-            (l, false)
-        } else if explicit || in_meta {
+            (l, false, VR::OB)
+        } else if explicit || meta {
             let vr = [b[4], b[5]];
             // As `dicom-encoding` reads it: these VRs have a 2-byte length; every
             // other, an unknown one included (read as UN), 2 reserved bytes and a
@@ -475,12 +485,19 @@ fn walk_lengths<R: std::io::Read>(
             } else {
                 u32::from(u16_at(&b[6..]))
             };
-            (l, &vr == b"SQ")
+            (l, &vr == b"SQ", VR::from_binary(vr).unwrap_or(VR::UN))
         } else {
-            let sq = dicom_dictionary_std::StandardDataDictionary
-                .by_tag(dicom_object::Tag(g, e))
-                .is_some_and(|d| matches!(d.vr(), VirtualVr::Exact(dicom_core::VR::SQ)));
-            (u32_at(&b[4..]), sq)
+            // The VR the implicit decoder gives: from the dictionary (the first of a
+            // choice), OW for pixel and overlay data, UN for an unknown tag.
+            let entry =
+                dicom_dictionary_std::StandardDataDictionary.by_tag(dicom_object::Tag(g, e));
+            let sq = entry.is_some_and(|d| matches!(d.vr(), VirtualVr::Exact(VR::SQ)));
+            let vr = if (g, e) == (0x7FE0, 0x0010) || (g >> 8 == 0x60 && e == 0x3000) {
+                VR::OW
+            } else {
+                entry.map_or(VR::UN, |d| d.vr().relaxed())
+            };
+            (u32_at(&b[4..]), sq, vr)
         };
         if l == UNDEF {
             fragments = (g, e) == (0x7FE0, 0x0010);
@@ -492,12 +509,12 @@ fn walk_lengths<R: std::io::Read>(
         if sq {
             continue; // its items follow
         }
-        if in_meta && (g, e) == (0x0002, 0x0000) && pos == 140 && l == 4 {
+        if meta && (g, e) == (0x0002, 0x0000) && pos == 140 && l == 4 {
             // The group length, when first (`dicom-object` requires it there).
             let mut v = [0u8; 4];
             r.read_exact(&mut v).map_err(io)?;
             w.meta_end = Some(pos + 4 + u64::from(u32::from_le_bytes(v)));
-        } else if in_meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
+        } else if meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
             let mut uid = vec![0u8; l as usize];
             r.read_exact(&mut uid).map_err(io)?;
             let uid = String::from_utf8_lossy(&uid);
@@ -515,7 +532,13 @@ fn walk_lengths<R: std::io::Read>(
                 _ => {}
             }
         } else {
+            // A data set's value of numbers is read as whole numbers: a length not a
+            // multiple of their size leaves the rest unread (and the parser reads the
+            // next header there).
+            let l = if meta { l } else { l - l % value_size(vr) };
             skip(r, l).map_err(io)?;
+            pos += u64::from(l);
+            continue;
         }
         pos += u64::from(l);
     }
@@ -524,6 +547,18 @@ fn walk_lengths<R: std::io::Read>(
         w.pos = pos;
     }
     Ok(())
+}
+
+/// Bytes per value of `vr` as `dicom-parser` reads a data set's values: numbers and
+/// tags whole (1 for text and bytes).
+fn value_size(vr: dicom_core::VR) -> u32 {
+    use dicom_core::VR;
+    match vr {
+        VR::US | VR::SS | VR::OW => 2,
+        VR::AT | VR::UL | VR::SL | VR::FL | VR::OL | VR::OF => 4,
+        VR::FD | VR::OD | VR::SV | VR::UV | VR::OV => 8,
+        _ => 1,
+    }
 }
 
 /// True when `path` starts like a DICOM Part 10 file (preamble + `DICM`).
@@ -985,6 +1020,32 @@ mod tests {
         f.extend(body);
         f.extend(rest);
         f
+    }
+
+    /// A value of numbers whose length is not a multiple of their size: the parser
+    /// reads whole numbers and the next header where they end, so the walk does too.
+    /// Here (0019,0010) SL of 6 bytes leaves 2 unread; read from there, the next
+    /// element (1010,424F) LO of 4 bytes is (0009,1010) OB claiming 1 GiB.
+    #[test]
+    fn numbers_are_read_whole_as_the_parser_reads_them() {
+        let mut rest = vec![0x19, 0, 0x10, 0, b'S', b'L', 6, 0, 1, 2, 3, 4];
+        rest.extend([9, 0]); // the 2 bytes past the last whole number
+        rest.extend([0x10, 0x10, b'O', b'B', b'L', b'O', 4, 0, 0, 0x40, 0, 0]);
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-whole-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.dcm");
+        std::fs::write(&file, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
+        let m = check_lengths(&file).unwrap_err().to_string();
+        assert!(
+            m.contains("element (0009,1010) claims 1073741828 bytes; the file has 2 left"),
+            "{m}"
+        );
+        // Whole numbers: nothing left unread, nothing claimed past the end.
+        let mut rest = vec![0x19, 0, 0x10, 0, b'S', b'L', 8, 0, 1, 2, 3, 4, 5, 6, 7, 8];
+        rest.extend([0x10, 0x10, b'O', b'B', b'L', b'O', 4, 0, 0, 0x40, 0, 0]);
+        std::fs::write(&file, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
+        assert_eq!(check_lengths(&file).map_err(|e| e.to_string()), Ok(()));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The length walk of a deflated data set: an honest one passes, one whose element
