@@ -196,6 +196,25 @@ fn bad_dicom_series_are_refused_clearly() {
     names.sort();
     let v = load_volume(&names[0]).unwrap();
     assert_eq!(v.sizes(), [7, 6, 5]);
+    // A series beside reports (no pixels; one in the series) and an undecodable slice
+    // of another series: one of its files reads it, and they are not counted as series.
+    let d = dir.join("bad/with-others");
+    let slice = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().unwrap().len() == 8)
+        .unwrap();
+    let v = load_volume(&slice).unwrap();
+    assert_eq!(v.sizes(), [7, 6, 5]);
+    let o = rendr(&dir, &["info", slice.to_str().unwrap()]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("DICOM series of 5 slices (5 files;"), "{out}");
+    let o = rendr(&dir, &["info", "bad/with-others"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("holds 2 DICOM series"), "{err}");
+    let o = rendr(&dir, &["info", "bad/with-others/report-own"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no Rows: not an image"), "{err}");
 }
 
 /// The NRRD rendr writes for a case's array and affine, in the format's frame.

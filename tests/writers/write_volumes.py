@@ -16,6 +16,7 @@ with the library, not with itself. expected-type is short, float or keep (the fi
 own type, as rendr converts it).
 """
 import os
+import shutil
 import sys
 
 import numpy as np
@@ -336,6 +337,21 @@ def dicom_cases():
         ds.PixelData = encapsulate([b"\xff\x4f\xff\x51" + bytes(64)])
     series(os.path.join("bad", "jpeg2000"), field(np.int16), (1.0, 1.0), (0, 0, 0), r, c,
            normal, 1.0, 0.0, ExplicitVRLittleEndian, None, extra=j2k)
+
+    # A series beside objects that are no images of it (as exports hold): a report
+    # without pixels, in the series and in a series of its own, and a slice of another
+    # series that can't be decoded (JPEG 2000). Named by one of its files, the series
+    # reads; the folder holds two series of images (the reports are none).
+    d = series(os.path.join("bad", "with-others"), field(np.int16), (1.0, 1.0), (0, 0, 0),
+               r, c, normal, 1.0, 0.0, ExplicitVRLittleEndian, None)
+    own = pydicom.dcmread(os.path.join(d, sorted(os.listdir(d))[0])).SeriesInstanceUID
+    for name, uid in (("report-own", generate_uid()), ("report-in", own)):
+        sr = base(uid, ExplicitVRLittleEndian, "1.2.840.10008.5.1.4.1.1.88.11")
+        sr.Modality = "SR"
+        sr.save_as(os.path.join(d, name), enforce_file_format=True,
+                   implicit_vr=False, little_endian=True)
+    j = os.path.join(OUT, "bad", "jpeg2000")
+    shutil.copy(os.path.join(j, sorted(os.listdir(j))[0]), os.path.join(d, "other-j2k"))
 
 
 nifti_cases()

@@ -131,22 +131,50 @@ type Placed = ([[f64; 3]; 3], [f64; 3], Vec<String>);
 
 /// The series UID, layout and frames of one file (header only, pixel data not read).
 fn frames_of(path: &Path) -> Result<FileInfo> {
+    let h = header_of(path)?;
+    image_of(path, &h)
+}
+
+/// A DICOM file's data set up to its pixel data, and its series.
+struct Header {
+    obj: dicom_object::DefaultDicomObject,
+    /// SeriesInstanceUID ("" without one).
+    uid: String,
+}
+
+impl Header {
+    /// Whether the file holds an image (Rows given): not a report, a presentation
+    /// state or another object without pixels.
+    fn is_image(&self) -> bool {
+        elem(&self.obj, tags::ROWS).is_some()
+    }
+}
+
+/// Reads `path`'s data set up to its pixel data (lengths checked first).
+fn header_of(path: &Path) -> Result<Header> {
     check_lengths(path)?;
     let obj = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
         .map_err(|e| Error::at(path, format!("not a readable DICOM file: {e}")))?;
+    let uid = elem(&obj, tags::SERIES_INSTANCE_UID)
+        .and_then(|e| e.to_str().ok())
+        .map(|s| s.trim_end_matches('\0').trim().to_string())
+        .unwrap_or_default();
+    Ok(Header { obj, uid })
+}
+
+/// The slices in the file `path` whose header is `h`.
+fn image_of(path: &Path, h: &Header) -> Result<FileInfo> {
+    let obj = &h.obj;
     let ts = obj
         .meta()
         .transfer_syntax()
         .trim_end_matches('\0')
         .to_string();
-    let o: &InMemDicomObject = &obj;
+    let o: &InMemDicomObject = obj;
     let at = |e: Error| e.with_path(path);
-    let uid = elem(o, tags::SERIES_INSTANCE_UID)
-        .and_then(|e| e.to_str().ok())
-        .map(|s| s.trim_end_matches('\0').trim().to_string())
-        .unwrap_or_default();
+    let uid = h.uid.clone();
     let get = |tag, name: &str| -> Result<i64> {
         int(o, tag, name)?.ok_or_else(|| Error::msg(format!("no {name}: not an image")))
     };
@@ -586,15 +614,23 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
     if files.is_empty() {
         return Err(Error::at(&dir, "holds no DICOM files"));
     }
-    // A directory must hold one series (or the file given picks its own).
-    let infos = files
-        .iter()
-        .map(|f| frames_of(f))
-        .collect::<Result<Vec<FileInfo>>>()?;
+    // The images beside it: those of the file's series, or of the one series of a
+    // directory. Other series, and objects without pixels (reports, presentation
+    // states), are passed over; a file that can't be parsed at all is an error.
+    let mut heads = Vec::new();
+    for f in files {
+        let h = header_of(&f)?;
+        if h.is_image() && only.as_ref().is_none_or(|u| *u == h.uid) {
+            heads.push((f, h));
+        }
+    }
+    if heads.is_empty() {
+        return Err(Error::at(&dir, "holds no DICOM images"));
+    }
     let mut uids: Vec<&str> = Vec::new();
-    for i in &infos {
-        if !uids.contains(&i.uid.as_str()) {
-            uids.push(&i.uid);
+    for (_, h) in &heads {
+        if !uids.contains(&h.uid.as_str()) {
+            uids.push(&h.uid);
         }
     }
     let want = match only {
@@ -611,7 +647,12 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
             ))
         }
     };
-    let parts: Vec<FileInfo> = infos.into_iter().filter(|i| i.uid == want).collect();
+    let parts = heads
+        .iter()
+        .filter(|(_, h)| h.uid == want)
+        .map(|(f, h)| image_of(f, h))
+        .collect::<Result<Vec<FileInfo>>>()?;
+    let nfiles = parts.len();
     let Some(layout) = parts.first().map(|p| p.layout.clone()) else {
         return Err(Error::at(
             path,
@@ -643,8 +684,8 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
         format!(
             "DICOM series of {} slices ({} file{}; transfer syntax {})",
             frames.len(),
-            files.len(),
-            if files.len() == 1 { "" } else { "s" },
+            nfiles,
+            if nfiles == 1 { "" } else { "s" },
             syntaxes
                 .iter()
                 .map(|u| syntax_name(u))
