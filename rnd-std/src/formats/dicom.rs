@@ -616,21 +616,22 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
     }
     // The images beside it: those of the file's series, or of the one series of a
     // directory. Other series, and objects without pixels (reports, presentation
-    // states), are passed over; a file that can't be parsed at all is an error.
-    let mut heads = Vec::new();
+    // states), are passed over; a file that can't be parsed at all is an error, and
+    // so is a slice of the series read that is not one.
+    let mut found: Vec<(String, Result<FileInfo>)> = Vec::new();
     for f in files {
         let h = header_of(&f)?;
         if h.is_image() && only.as_ref().is_none_or(|u| *u == h.uid) {
-            heads.push((f, h));
+            found.push((h.uid.clone(), image_of(&f, &h)));
         }
     }
-    if heads.is_empty() {
+    if found.is_empty() {
         return Err(Error::at(&dir, "holds no DICOM images"));
     }
     let mut uids: Vec<&str> = Vec::new();
-    for (_, h) in &heads {
-        if !uids.contains(&h.uid.as_str()) {
-            uids.push(&h.uid);
+    for (uid, _) in &found {
+        if !uids.contains(&uid.as_str()) {
+            uids.push(uid);
         }
     }
     let want = match only {
@@ -647,10 +648,10 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
             ))
         }
     };
-    let parts = heads
-        .iter()
-        .filter(|(_, h)| h.uid == want)
-        .map(|(f, h)| image_of(f, h))
+    let parts = found
+        .into_iter()
+        .filter(|(uid, _)| *uid == want)
+        .map(|(_, info)| info)
         .collect::<Result<Vec<FileInfo>>>()?;
     let nfiles = parts.len();
     let Some(layout) = parts.first().map(|p| p.layout.clone()) else {
