@@ -209,6 +209,11 @@ fn bad_dicom_series_are_refused_clearly() {
     let o = rendr(&dir, &["info", slice.to_str().unwrap()]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("DICOM series of 5 slices (5 files;"), "{out}");
+    // A bare file name: its folder is the current directory.
+    let name = slice.file_name().unwrap().to_str().unwrap();
+    let o = rendr(&d, &["info", name]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("DICOM series of 5 slices (5 files;"), "{out}");
     let o = rendr(&dir, &["info", "bad/with-others"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("holds 2 DICOM series"), "{err}");

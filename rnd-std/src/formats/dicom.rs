@@ -469,8 +469,9 @@ fn walk_lengths<R: std::io::Read>(
             }
             if e != 0xE000 || l == UNDEF || !fragments {
                 // An item's elements follow (or a delimiter): a defined length holds
-                // them, so it too must fit in the file.
-                if e == 0xE000 && l != UNDEF && u64::from(l) > len - pos {
+                // them, so it too must fit in the file. (A delimiter's is 0; one
+                // outside any sequence is read as an element with its length.)
+                if l != UNDEF && u64::from(l) > len - pos {
                     return Err(too_long(l, len - pos));
                 }
                 continue;
@@ -605,10 +606,9 @@ pub(super) fn read(path: &Path) -> Result<Loaded> {
         (path.to_path_buf(), None)
     } else {
         let uid = frames_of(path)?.uid;
-        (
-            path.parent().unwrap_or(Path::new(".")).to_path_buf(),
-            Some(uid),
-        )
+        // (A bare file name's parent is "": the current directory.)
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+        (dir.unwrap_or(Path::new(".")).to_path_buf(), Some(uid))
     };
     let files = series_files(&dir)?;
     if files.is_empty() {
