@@ -323,15 +323,7 @@ fn check_lengths(path: &Path) -> Result<()> {
     let len = f.metadata().map_err(io)?.len();
     let mut r = std::io::BufReader::new(f);
     r.seek(SeekFrom::Start(132)).map_err(io)?;
-    let mut w = Walk {
-        pos: 132,
-        len,
-        explicit: true,
-        big: false,
-        in_meta: true,
-        deflated: false,
-        meta_end: None,
-    };
+    let mut w = Walk::start(132, len, true);
     walk_lengths(&mut r, &mut w, path, "the file", |r, n| {
         r.seek_relative(i64::from(n))
     })?;
@@ -355,15 +347,7 @@ fn check_lengths(path: &Path) -> Result<()> {
     crate::check_memory(size, "the inflated data set").map_err(|e| e.with_path(path))?;
     r.seek(SeekFrom::Start(w.pos)).map_err(io)?;
     let mut d = std::io::BufReader::new(flate2::read::DeflateDecoder::new(r));
-    let mut wd = Walk {
-        pos: 0,
-        len: size,
-        explicit: true,
-        big: false,
-        in_meta: false,
-        deflated: false,
-        meta_end: None,
-    };
+    let mut wd = Walk::start(0, size, false);
     walk_lengths(&mut d, &mut wd, path, "the inflated data set", |r, n| {
         let got = std::io::copy(&mut r.take(u64::from(n)), &mut std::io::sink())?;
         if got < u64::from(n) {
@@ -379,9 +363,7 @@ struct Walk {
     pos: u64,
     /// Bytes that the file (or the inflated data set) holds.
     len: u64,
-    explicit: bool,
-    big: bool,
-    /// Still in the file meta group (group 2, explicit little endian).
+    /// The walk starts in the file meta group (group 2).
     in_meta: bool,
     /// The meta group names the deflated transfer syntax: the walk stopped where the
     /// data set starts (`pos`).
@@ -389,6 +371,20 @@ struct Walk {
     /// Where the meta group ends by its group length (0002,0000), as `dicom-object`
     /// reads it.
     meta_end: Option<u64>,
+}
+
+impl Walk {
+    /// A walk from `pos` of `len` bytes, in explicit little endian (the meta group's
+    /// encoding, and the deflated data set's), in the meta group or not.
+    fn start(pos: u64, len: u64, in_meta: bool) -> Walk {
+        Walk {
+            pos,
+            len,
+            in_meta,
+            deflated: false,
+            meta_end: None,
+        }
+    }
 }
 
 /// The walk of [`check_lengths`] over `r` from `w`, `skip` passing over an element's
@@ -405,7 +401,7 @@ fn walk_lengths<R: std::io::Read>(
     const UNDEF: u32 = 0xFFFF_FFFF;
     let io = |e: std::io::Error| Error::io(path, "can't read", e);
     let (len, mut pos) = (w.len, w.pos);
-    let (mut explicit, mut big, mut in_meta) = (w.explicit, w.big, w.in_meta);
+    let (mut explicit, mut big, mut in_meta) = (true, false, w.in_meta);
     let mut fragments = false;
     let mut b = [0u8; 8];
     while pos + 8 <= len {
