@@ -178,6 +178,19 @@ fn delimiter_lengths_are_bounded_by_the_file() {
     );
 }
 
+/// A DICOM whose DS inside a nested sequence claims the bytes of the items after it,
+/// so its item and sequence end (by their lengths) where an item header stands; the
+/// parser reads that header as an element with a value of its length, and the header
+/// after the value claims 1.4 GB (found by the formats target under a 300 MB limit:
+/// 1.4 GB and 2.4 s). The walk follows the parser's stack of sequences and items.
+#[test]
+fn item_headers_after_an_item_ends_are_read_as_elements() {
+    refused(
+        "oom-in-sequence",
+        "element (00FF,46E0) claims 1402016512 bytes",
+    );
+}
+
 /// A NIfTI-2 header claiming 2 GB of samples over 845 bytes of data (found by the
 /// formats target, out of memory: the whole claim was reserved and its pages mapped
 /// before reading) is an error, and the memory it took grows with the data read.

@@ -308,14 +308,17 @@ fn image_of(path: &Path, h: &Header) -> Result<FileInfo> {
     })
 }
 
-/// Refuses a file in which an element claims more bytes than the file holds after it.
+/// Refuses a file in which an element claims more bytes than the file holds after it,
+/// or whose sequences nest deeper than [`NESTING_MAX`].
 ///
 /// `dicom-parser` reserves and zeroes an element's stated length before reading it, so
-/// a lying length (up to 4 GiB) would cost that much memory before the read fails; this
-/// walk of the element headers (descending into sequences and items, through the
-/// fragments of encapsulated pixel data) bounds every length by the file's size first.
-/// A deflated data set is inflated (counted, then walked as a stream): its lengths are
-/// bounded by its inflated size, itself bounded by the memory the process may use.
+/// a lying length (up to 4 GiB) would cost that much memory before the read fails, and
+/// `dicom-object` builds nested sequences by recursion, so deep nesting would overflow
+/// the stack. This walk follows the element headers as the parser reads them (the meta
+/// group, then the data set with the parser's stack of open sequences and items) and
+/// bounds every length by the file's size first. A deflated data set is inflated
+/// (counted, then walked as a stream): its lengths are bounded by its inflated size,
+/// itself bounded by the memory the process may use.
 fn check_lengths(path: &Path) -> Result<()> {
     use std::io::{Read, Seek, SeekFrom};
     let io = |e: std::io::Error| Error::io(path, "can't read", e);
@@ -323,12 +326,18 @@ fn check_lengths(path: &Path) -> Result<()> {
     let len = f.metadata().map_err(io)?.len();
     let mut r = std::io::BufReader::new(f);
     r.seek(SeekFrom::Start(132)).map_err(io)?;
-    let mut w = Walk::start(132, len, true);
-    walk_lengths(&mut r, &mut w, path, "the file", |r, n| {
-        r.seek_relative(i64::from(n))
-    })?;
-    if !w.deflated {
-        return Ok(());
+    let seek = |r: &mut std::io::BufReader<std::fs::File>, n: u32| r.seek_relative(i64::from(n));
+    let Some(set) = walk_meta(&mut r, len, path, seek)? else {
+        return Ok(()); // `dicom-object` refuses the meta group itself
+    };
+    let mut file = Stream {
+        pos: set.start,
+        len,
+        path,
+        whole: "the file",
+    };
+    if !set.deflated {
+        return walk_data_set(&mut r, &mut file, set.encoding, seek);
     }
     // The data set after the meta group is one raw deflate stream: its size first (the
     // stream is read, not kept), then its elements.
@@ -338,17 +347,22 @@ fn check_lengths(path: &Path) -> Result<()> {
             format!("the deflated data set can't be inflated: {e}"),
         )
     };
-    r.seek(SeekFrom::Start(w.pos)).map_err(io)?;
+    r.seek(SeekFrom::Start(set.start)).map_err(io)?;
     let size = std::io::copy(
         &mut flate2::read::DeflateDecoder::new(&mut r),
         &mut std::io::sink(),
     )
     .map_err(inflate)?;
     crate::check_memory(size, "the inflated data set").map_err(|e| e.with_path(path))?;
-    r.seek(SeekFrom::Start(w.pos)).map_err(io)?;
+    r.seek(SeekFrom::Start(set.start)).map_err(io)?;
     let mut d = std::io::BufReader::new(flate2::read::DeflateDecoder::new(r));
-    let mut wd = Walk::start(0, size, false);
-    walk_lengths(&mut d, &mut wd, path, "the inflated data set", |r, n| {
+    let mut inflated = Stream {
+        pos: 0,
+        len: size,
+        path,
+        whole: "the inflated data set",
+    };
+    walk_data_set(&mut d, &mut inflated, Encoding::EXPLICIT_LE, |r, n| {
         let got = std::io::copy(&mut r.take(u64::from(n)), &mut std::io::sink())?;
         if got < u64::from(n) {
             return Err(std::io::ErrorKind::UnexpectedEof.into());
@@ -357,221 +371,462 @@ fn check_lengths(path: &Path) -> Result<()> {
     })
 }
 
-/// Where a walk of element headers is, and how the elements it reads are encoded.
-struct Walk {
-    /// Byte offset of the reader (in the file, or in the inflated data set).
-    pos: u64,
-    /// Bytes that the file (or the inflated data set) holds.
-    len: u64,
-    /// The walk starts in the file meta group (group 2).
-    in_meta: bool,
-    /// The meta group names the deflated transfer syntax: the walk stopped where the
-    /// data set starts (`pos`).
-    deflated: bool,
-    /// Where the meta group ends by its group length (0002,0000), as `dicom-object`
-    /// reads it.
-    meta_end: Option<u64>,
+/// Deepest nesting of sequences a DICOM file may have (real files nest a few levels;
+/// `dicom-object` builds each level by recursion, ~1 kB of stack).
+const NESTING_MAX: usize = 128;
+
+/// An undefined length.
+const UNDEF: u32 = 0xFFFF_FFFF;
+
+/// How a data set's elements are encoded.
+#[derive(Clone, Copy)]
+struct Encoding {
+    explicit: bool,
+    big: bool,
 }
 
-impl Walk {
-    /// A walk from `pos` of `len` bytes, in explicit little endian (the meta group's
-    /// encoding, and the deflated data set's), in the meta group or not.
-    fn start(pos: u64, len: u64, in_meta: bool) -> Walk {
-        Walk {
-            pos,
-            len,
-            in_meta,
-            deflated: false,
-            meta_end: None,
+impl Encoding {
+    /// The meta group's encoding (and the deflated data set's).
+    const EXPLICIT_LE: Encoding = Encoding {
+        explicit: true,
+        big: false,
+    };
+
+    fn u16(self, x: &[u8]) -> u16 {
+        let a = [x[0], x[1]];
+        if self.big {
+            u16::from_be_bytes(a)
+        } else {
+            u16::from_le_bytes(a)
+        }
+    }
+
+    fn u32(self, x: &[u8]) -> u32 {
+        let a = [x[0], x[1], x[2], x[3]];
+        if self.big {
+            u32::from_be_bytes(a)
+        } else {
+            u32::from_le_bytes(a)
         }
     }
 }
 
-/// The walk of [`check_lengths`] over `r` from `w`, `skip` passing over an element's
-/// value; `whole` names what `w.len` measures in messages.
-fn walk_lengths<R: std::io::Read>(
+/// Where the data set after the meta group starts, and how it is encoded.
+struct DataSet {
+    start: u64,
+    encoding: Encoding,
+    deflated: bool,
+}
+
+/// What a walk reads: its place, its size, and names for messages.
+struct Stream<'a> {
+    /// Bytes read so far (in the file, or in the inflated data set).
+    pos: u64,
+    /// Bytes it holds.
+    len: u64,
+    path: &'a Path,
+    /// What `len` measures, in messages.
+    whole: &'a str,
+}
+
+impl Stream<'_> {
+    fn io(&self, e: std::io::Error) -> Error {
+        Error::io(self.path, "can't read", e)
+    }
+
+    /// Bytes left after `pos`.
+    fn left(&self) -> u64 {
+        self.len.saturating_sub(self.pos)
+    }
+
+    /// An error unless `l` (an element's, item's or delimiter's length) fits in what is
+    /// left.
+    fn bound(&self, h: &Head) -> Result<()> {
+        if h.len != UNDEF && u64::from(h.len) > self.left() {
+            return Err(Error::at(
+                self.path,
+                format!(
+                    "element ({:04X},{:04X}) claims {} bytes; {} has {} left",
+                    h.tag.0,
+                    h.tag.1,
+                    h.len,
+                    self.whole,
+                    self.left()
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// An element, item or delimiter header as `dicom-encoding` decodes it.
+struct Head {
+    tag: (u16, u16),
+    vr: dicom_core::VR,
+    len: u32,
+}
+
+/// Reads the header at `s.pos` in encoding `enc` (advancing `s.pos`), as
+/// `dicom-encoding` decodes an element header: item and delimiter tags (group FFFE)
+/// have a 4-byte length and no VR; an explicit VR is one of two forms; an implicit VR
+/// comes from the dictionary. None when the stream ends first.
+fn read_head<R: std::io::Read>(r: &mut R, s: &mut Stream, enc: Encoding) -> Result<Option<Head>> {
+    use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry};
+    use dicom_core::VR;
+    if s.left() < 8 {
+        return Ok(None);
+    }
+    let mut b = [0u8; 8];
+    r.read_exact(&mut b).map_err(|e| s.io(e))?;
+    s.pos += 8;
+    let tag = (enc.u16(&b), enc.u16(&b[2..]));
+    if tag.0 == 0xFFFE {
+        let len = enc.u32(&b[4..]);
+        return Ok(Some(Head {
+            tag,
+            vr: VR::UN,
+            len,
+        }));
+    }
+    if !enc.explicit {
+        // OW for pixel and overlay data, the first of a choice, UN for an unknown tag.
+        let vr = if tag == (0x7FE0, 0x0010) || (tag.0 >> 8 == 0x60 && tag.1 == 0x3000) {
+            VR::OW
+        } else {
+            dicom_dictionary_std::StandardDataDictionary
+                .by_tag(dicom_object::Tag(tag.0, tag.1))
+                .map_or(VR::UN, |d| d.vr().relaxed())
+        };
+        let len = enc.u32(&b[4..]);
+        return Ok(Some(Head { tag, vr, len }));
+    }
+    // These VRs have a 2-byte length; every other, an unknown one included (read as
+    // UN), 2 reserved bytes and a 4-byte length.
+    let vr = VR::from_binary([b[4], b[5]]).unwrap_or(VR::UN);
+    let short = matches!(
+        vr,
+        VR::AE
+            | VR::AS
+            | VR::AT
+            | VR::CS
+            | VR::DA
+            | VR::DS
+            | VR::DT
+            | VR::FL
+            | VR::FD
+            | VR::IS
+            | VR::LO
+            | VR::LT
+            | VR::PN
+            | VR::SH
+            | VR::SL
+            | VR::SS
+            | VR::ST
+            | VR::TM
+            | VR::UI
+            | VR::UL
+            | VR::US
+    );
+    let len = if short {
+        u32::from(enc.u16(&b[6..]))
+    } else {
+        if s.left() < 4 {
+            return Ok(None);
+        }
+        let mut x = [0u8; 4];
+        r.read_exact(&mut x).map_err(|e| s.io(e))?;
+        s.pos += 4;
+        enc.u32(&x)
+    };
+    Ok(Some(Head { tag, vr, len }))
+}
+
+/// The file meta group from just after `DICM`, as `dicom-object` reads it: the group
+/// length (0002,0000) first, then elements (each value read whole) until their bytes
+/// reach it. Where the data set starts and how it is encoded; None when `dicom-object`
+/// refuses the meta group.
+fn walk_meta<R: std::io::Read>(
     r: &mut R,
-    w: &mut Walk,
+    len: u64,
     path: &Path,
-    whole: &str,
+    mut skip: impl FnMut(&mut R, u32) -> std::io::Result<()>,
+) -> Result<Option<DataSet>> {
+    let enc = Encoding::EXPLICIT_LE;
+    let mut s = Stream {
+        pos: 132,
+        len,
+        path,
+        whole: "the file",
+    };
+    let first = read_head(r, &mut s, enc)?;
+    if first.is_none_or(|h| h.tag != (2, 0) || h.len != 4) || s.left() < 4 {
+        return Ok(None);
+    }
+    let mut v = [0u8; 4];
+    r.read_exact(&mut v).map_err(|e| s.io(e))?;
+    s.pos += 4;
+    let group = u32::from_le_bytes(v);
+    let mut ts: Option<String> = None;
+    let mut read = 0u32;
+    while read < group {
+        let at = s.pos;
+        let Some(h) = read_head(r, &mut s, enc)? else {
+            return Ok(None);
+        };
+        if h.len == UNDEF {
+            return Ok(None);
+        }
+        s.bound(&h)?;
+        if h.tag == (0x0002, 0x0010) && h.len <= 64 {
+            let mut uid = vec![0u8; h.len as usize];
+            r.read_exact(&mut uid).map_err(|e| s.io(e))?;
+            ts = Some(String::from_utf8_lossy(&uid).into_owned());
+        } else {
+            skip(r, h.len).map_err(|e| s.io(e))?;
+        }
+        s.pos += u64::from(h.len);
+        let size = u32::try_from(s.pos - at).unwrap_or(u32::MAX);
+        read = read.saturating_add(size);
+    }
+    // The data set's encoding, as `dicom-object` takes it from the registry: a syntax
+    // it does not know, or cannot read, is refused.
+    use dicom_transfer_syntax_registry::TransferSyntaxIndex;
+    let Some(syntax) = ts
+        .as_deref()
+        .and_then(|u| dicom_transfer_syntax_registry::TransferSyntaxRegistry.get(u))
+    else {
+        return Ok(None);
+    };
+    if !syntax.can_decode_dataset() {
+        return Ok(None);
+    }
+    Ok(Some(DataSet {
+        start: s.pos,
+        encoding: Encoding {
+            explicit: syntax.uid() != "1.2.840.10008.1.2",
+            big: syntax.uid() == "1.2.840.10008.1.2.2",
+        },
+        // A data set read through an adapter (deflate): Deflated Explicit VR Little
+        // Endian, and the JPIP Referenced Deflate syntaxes.
+        deflated: !syntax.is_codec_free() && !syntax.is_encapsulated_pixel_data(),
+    }))
+}
+
+/// A sequence or item the parser has open (its stack of delimiters).
+#[derive(Clone, Copy)]
+struct Open {
+    item: bool,
+    /// Its length (or [`UNDEF`]).
+    len: u32,
+    /// The parser's count where its content starts.
+    base: u64,
+    /// Pixel data fragments (or one of them).
+    pixel: bool,
+}
+
+/// The data set from `s.pos` in encoding `enc`, read as `dicom-parser`'s
+/// `DataSetReader` reads it (`skip` passing over a value): every length it reserves is
+/// bounded by the bytes left, and sequences nest at most [`NESTING_MAX`] deep. Where the
+/// parser would stop with an error (a bad item header, an item running past its
+/// sequence, the end of the data), the walk stops too and leaves the error to it.
+///
+/// The parser keeps two places: the bytes it has read (`s.pos`) and its count (`at`),
+/// which for a value of numbers adds the stated length though only whole numbers are
+/// read. The count decides where a defined-length sequence or item ends; the bytes
+/// where the next header is read.
+fn walk_data_set<R: std::io::Read>(
+    r: &mut R,
+    s: &mut Stream,
+    enc: Encoding,
     mut skip: impl FnMut(&mut R, u32) -> std::io::Result<()>,
 ) -> Result<()> {
     use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
     use dicom_core::VR;
-    const UNDEF: u32 = 0xFFFF_FFFF;
-    let io = |e: std::io::Error| Error::io(path, "can't read", e);
-    let (len, mut pos) = (w.len, w.pos);
-    let (mut explicit, mut big, mut in_meta) = (true, false, w.in_meta);
-    let mut fragments = false;
-    let mut b = [0u8; 8];
-    while pos + 8 <= len {
-        if w.deflated && w.meta_end.is_some_and(|m| pos >= m) {
-            // The meta group read as `dicom-object` reads it: the data set starts here.
-            w.pos = pos;
-            return Ok(());
+    let mut at = s.pos;
+    let mut open: Vec<Open> = Vec::new();
+    // The parser's flags: at a sequence's level (an item header next), a check for a
+    // defined length's end due, the pixel data's first item (or delimiter) next, the
+    // offset table next; and PixelRepresentation, when read, signed.
+    let (mut in_seq, mut check, mut pixel_next, mut table_next) = (false, false, false, false);
+    let mut signed: Option<bool> = None;
+    let mut pass = |r: &mut R, s: &mut Stream, n: u32| {
+        skip(r, n).map_err(|e| s.io(e))?;
+        s.pos += u64::from(n);
+        Ok::<(), Error>(())
+    };
+    let deep = |s: &Stream, open: &[Open]| {
+        if open.len() >= 2 * NESTING_MAX {
+            return Err(Error::at(
+                s.path,
+                format!("sequences nest more than {NESTING_MAX} deep"),
+            ));
         }
-        let start = pos;
-        r.read_exact(&mut b).map_err(io)?;
-        pos += 8;
-        if in_meta && u16::from_le_bytes([b[0], b[1]]) != 2 {
-            // The data set starts: its encoding follows the transfer syntax.
-            in_meta = false;
-        }
-        // As `dicom-object` reads the file: the meta group up to its group length
-        // (explicit little endian, each value read whole), then the data set in the
-        // transfer syntax's encoding, whatever the groups (without a group length, by
-        // the group number; `dicom-object` refuses such a file).
-        let meta = match w.meta_end {
-            Some(m) => start < m,
-            None => in_meta,
-        };
-        let (g, e) = if big && !meta {
-            (
-                u16::from_be_bytes([b[0], b[1]]),
-                u16::from_be_bytes([b[2], b[3]]),
-            )
-        } else {
-            (
-                u16::from_le_bytes([b[0], b[1]]),
-                u16::from_le_bytes([b[2], b[3]]),
-            )
-        };
-        let u32_at = |x: &[u8]| -> u32 {
-            let a: [u8; 4] = [x[0], x[1], x[2], x[3]];
-            if big && !meta {
-                u32::from_be_bytes(a)
-            } else {
-                u32::from_le_bytes(a)
-            }
-        };
-        let u16_at = |x: &[u8]| -> u16 {
-            if big && !meta {
-                u16::from_be_bytes([x[0], x[1]])
-            } else {
-                u16::from_le_bytes([x[0], x[1]])
-            }
-        };
-        let too_long = |l: u32, left: u64| {
-            Error::at(
-                path,
-                format!("element ({g:04X},{e:04X}) claims {l} bytes; {whole} has {left} left"),
-            )
-        };
-        let (l, sq, vr) = if g == 0xFFFE {
-            // Item and delimiters: a 4-byte length, no VR.
-            let l = u32_at(&b[4..]);
-            if e == 0xE0DD {
-                fragments = false;
-            }
-            if e != 0xE000 || l == UNDEF || !fragments {
-                // An item's elements follow (or a delimiter): a defined length holds
-                // them, so it too must fit in the file. (A delimiter's is 0; one
-                // outside any sequence is read as an element with its length.)
-                if l != UNDEF && u64::from(l) > len - pos {
-                    return Err(too_long(l, len - pos));
+        Ok(())
+    };
+    loop {
+        if check {
+            // A defined length ends where the count reaches it; the count past it is an
+            // error.
+            if let Some(o) = open.last().filter(|o| o.len != UNDEF) {
+                let end = o.base + u64::from(o.len);
+                if end < at {
+                    return Ok(());
                 }
-                continue;
+                if end == at {
+                    in_seq = o.item;
+                    open.pop();
+                    continue;
+                }
             }
-            (l, false, VR::OB)
-        } else if explicit || meta {
-            let vr = [b[4], b[5]];
-            // As `dicom-encoding` reads it: these VRs have a 2-byte length; every
-            // other, an unknown one included (read as UN), 2 reserved bytes and a
-            // 4-byte length.
-            let long = !matches!(
-                &vr,
-                b"AE"
-                    | b"AS"
-                    | b"AT"
-                    | b"CS"
-                    | b"DA"
-                    | b"DS"
-                    | b"DT"
-                    | b"FL"
-                    | b"FD"
-                    | b"IS"
-                    | b"LO"
-                    | b"LT"
-                    | b"PN"
-                    | b"SH"
-                    | b"SL"
-                    | b"SS"
-                    | b"ST"
-                    | b"TM"
-                    | b"UI"
-                    | b"UL"
-                    | b"US"
-            );
-            let l = if long {
-                let mut x = [0u8; 4];
-                r.read_exact(&mut x).map_err(io)?;
-                pos += 4;
-                u32_at(&x)
-            } else {
-                u32::from(u16_at(&b[6..]))
+            check = false;
+        }
+        if in_seq || pixel_next {
+            // An item header (or a delimiter) comes next.
+            let first = pixel_next;
+            if first {
+                pixel_next = false;
+                open.push(Open {
+                    item: false,
+                    len: UNDEF,
+                    base: at,
+                    pixel: true,
+                });
+            }
+            if s.left() < 8 {
+                return Ok(());
+            }
+            let mut b = [0u8; 8];
+            r.read_exact(&mut b).map_err(|e| s.io(e))?;
+            s.pos += 8;
+            at += 8;
+            let h = Head {
+                tag: (enc.u16(&b), enc.u16(&b[2..])),
+                vr: VR::UN,
+                len: enc.u32(&b[4..]),
             };
-            (l, &vr == b"SQ", VR::from_binary(vr).unwrap_or(VR::UN))
-        } else {
-            // The VR the implicit decoder gives: from the dictionary (the first of a
-            // choice), OW for pixel and overlay data, UN for an unknown tag.
-            let entry =
-                dicom_dictionary_std::StandardDataDictionary.by_tag(dicom_object::Tag(g, e));
-            let sq = entry.is_some_and(|d| matches!(d.vr(), VirtualVr::Exact(VR::SQ)));
-            let vr = if (g, e) == (0x7FE0, 0x0010) || (g >> 8 == 0x60 && e == 0x3000) {
-                VR::OW
-            } else {
-                entry.map_or(VR::UN, |d| d.vr().relaxed())
-            };
-            (u32_at(&b[4..]), sq, vr)
-        };
-        if l == UNDEF {
-            fragments = (g, e) == (0x7FE0, 0x0010);
-            continue;
-        }
-        if u64::from(l) > len - pos {
-            return Err(too_long(l, len - pos));
-        }
-        if sq {
-            continue; // its items follow
-        }
-        if meta && (g, e) == (0x0002, 0x0000) && pos == 140 && l == 4 {
-            // The group length, when first (`dicom-object` requires it there).
-            let mut v = [0u8; 4];
-            r.read_exact(&mut v).map_err(io)?;
-            w.meta_end = Some(pos + 4 + u64::from(u32::from_le_bytes(v)));
-        } else if meta && (g, e) == (0x0002, 0x0010) && l <= 64 {
-            let mut uid = vec![0u8; l as usize];
-            r.read_exact(&mut uid).map_err(io)?;
-            let uid = String::from_utf8_lossy(&uid);
-            match uid.trim_end_matches(['\0', ' ']) {
-                "1.2.840.10008.1.2" => explicit = false,
-                "1.2.840.10008.1.2.2" => big = true,
-                // Deflated: the data set after the meta group is compressed; without
-                // a group length `dicom-object` refuses the file itself.
-                "1.2.840.10008.1.2.1.99" => {
-                    if w.meta_end.is_none() {
+            match h.tag {
+                (0xFFFE, 0xE000) => {
+                    let Some(pixel) = open.last().map(|o| o.pixel) else {
                         return Ok(());
+                    };
+                    s.bound(&h)?;
+                    deep(s, &open)?;
+                    in_seq = false;
+                    open.push(Open {
+                        item: true,
+                        len: h.len,
+                        base: at,
+                        pixel,
+                    });
+                    if h.len == 0 {
+                        check = true;
+                    } else if first {
+                        table_next = true;
                     }
-                    w.deflated = true;
                 }
-                _ => {}
+                (0xFFFE, 0xE00D) if h.len == 0 && !first => {
+                    open.pop();
+                    in_seq = true;
+                    check = true;
+                }
+                (0xFFFE, 0xE0DD) => {
+                    open.pop();
+                    in_seq = false;
+                    check = !first;
+                }
+                _ => return Ok(()),
             }
-        } else {
-            // A data set's value of numbers is read as whole numbers: a length not a
-            // multiple of their size leaves the rest unread (and the parser reads the
-            // next header there).
-            let l = if meta { l } else { l - l % value_size(vr) };
-            skip(r, l).map_err(io)?;
-            pos += u64::from(l);
             continue;
         }
-        pos += u64::from(l);
+        if let Some(o) = open.last().filter(|o| o.item && o.pixel) {
+            // A fragment's bytes (the first, the offset table, read as whole u32s).
+            if o.len == UNDEF {
+                return Ok(());
+            }
+            let n = if table_next { o.len & !3 } else { o.len };
+            table_next = false;
+            // A fragment is read as far as the data goes and counted whole. (Only after
+            // an offset table whose length is not a multiple of 4 is a fragment read a
+            // second time, and can run past the end; the count then passes the item's.)
+            pass(r, s, n.min(u32::try_from(s.left()).unwrap_or(u32::MAX)))?;
+            at += u64::from(n);
+            check = true;
+            continue;
+        }
+        // An element header: a sequence, a delimiter, pixel fragments, or a value.
+        let before = s.pos;
+        let Some(mut h) = read_head(r, s, enc)? else {
+            return Ok(());
+        };
+        at += s.pos - before;
+        let xs = || {
+            dicom_dictionary_std::StandardDataDictionary
+                .by_tag(dicom_object::Tag(h.tag.0, h.tag.1))
+                .is_some_and(|d| matches!(d.vr(), VirtualVr::Xs))
+        };
+        if signed == Some(true) && xs() {
+            // "US or SS" read as SS for signed pixels.
+            h.vr = VR::SS;
+        }
+        if h.vr == VR::SQ {
+            s.bound(&h)?;
+            deep(s, &open)?;
+            in_seq = true;
+            open.push(Open {
+                item: false,
+                len: h.len,
+                base: at,
+                pixel: false,
+            });
+            check = h.len == 0;
+            continue;
+        }
+        if h.tag == (0xFFFE, 0xE00D) {
+            // An item delimiter: ignored outside any sequence.
+            if open.pop().is_some() {
+                in_seq = true;
+                check = true;
+            }
+            continue;
+        }
+        if h.len == UNDEF {
+            if h.tag == (0x7FE0, 0x0010) {
+                pixel_next = true;
+            } else {
+                // Read as a sequence, whatever its VR.
+                deep(s, &open)?;
+                in_seq = true;
+                open.push(Open {
+                    item: false,
+                    len: UNDEF,
+                    base: at,
+                    pixel: false,
+                });
+            }
+            continue;
+        }
+        s.bound(&h)?;
+        if h.len > 0 {
+            // A value of numbers is read as whole numbers (the rest is left unread) but
+            // counted whole.
+            let n = h.len - h.len % value_size(h.vr);
+            if h.tag == (0x0028, 0x0103) && matches!(h.vr, VR::US | VR::OW) {
+                // PixelRepresentation: nonzero makes later "US or SS" values SS.
+                signed = None;
+                if n >= 2 {
+                    let mut v = [0u8; 2];
+                    r.read_exact(&mut v).map_err(|e| s.io(e))?;
+                    s.pos += 2;
+                    signed = Some(enc.u16(&v) != 0);
+                    pass(r, s, n - 2)?;
+                }
+            } else {
+                pass(r, s, n)?;
+            }
+            at += u64::from(h.len);
+        }
+        check = true;
     }
-    if w.deflated {
-        // The data set is empty or the meta group's length runs past the file.
-        w.pos = pos;
-    }
-    Ok(())
 }
 
 /// Bytes per value of `vr` as `dicom-parser` reads a data set's values: numbers and
@@ -1121,6 +1376,13 @@ mod tests {
             ),
             "{m}"
         );
+        // JPIP Referenced Deflate: its data set is deflated too.
+        let m = check(part10(
+            "1.2.840.10008.1.2.4.95",
+            &deflate(&element(1 << 30)),
+        ))
+        .unwrap_err();
+        assert!(m.contains("the inflated data set has 4 left"), "{m}");
         // Not compressed: the same element read as deflate data.
         let m = check(part10(ts, &element(4))).unwrap_err();
         assert!(m.contains("the deflated data set can't be inflated"), "{m}");
@@ -1130,6 +1392,107 @@ mod tests {
             m.contains("claims 1073741824 bytes; the file has 4 left"),
             "{m}"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Writes `bytes` as a file in a fresh folder and checks its lengths.
+    fn check_bytes(name: &str, bytes: &[u8]) -> Result<(), String> {
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.dcm");
+        std::fs::write(&file, bytes).unwrap();
+        let got = check_lengths(&file).map_err(|e| e.to_string());
+        std::fs::remove_dir_all(&dir).unwrap();
+        got
+    }
+
+    /// An item or sequence delimiter header where an element is expected (outside any
+    /// sequence, or after an item ends by its length) is read by the parser as an
+    /// element with a value of its length, and the next header after that value (the
+    /// formats fuzz target found a DICOM whose walk took such an item header as an item
+    /// and missed a 1.4 GB claim). Here the header's 12 bytes hide, from a walk that
+    /// reads them as headers, the next element: (0009,1010) OB claiming 1 GiB.
+    #[test]
+    fn item_headers_where_elements_are_expected_are_read_as_elements() {
+        for e in [0xE0DDu16, 0xE000] {
+            let mut rest = vec![0xFE, 0xFF];
+            rest.extend(e.to_le_bytes());
+            rest.extend([12, 0, 0, 0]);
+            rest.extend([9, 0, 0x10, 0, b'L', b'O', 12, 0, 0, 0, 0, 0]);
+            rest.extend([9, 0, 0x10, 0x10, b'O', b'B', 0, 0, 0, 0, 0, 0x40]);
+            let m = check_bytes("stray", &part10("1.2.840.10008.1.2.1", &rest)).unwrap_err();
+            assert!(
+                m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
+                "{e:04X}: {m}"
+            );
+        }
+    }
+
+    /// A defined-length item ends where the parser's count reaches its length; the
+    /// count adds a value's stated length though only whole numbers are read. An item
+    /// of 14 bytes holding an SL that states 6 bytes (one number, 4 bytes, present)
+    /// ends there by count: its sequence's delimiter follows, then an element claiming
+    /// 1 GiB, refused. An item of 12 bytes around the same SL ends before the count
+    /// (the parser stops, "inconsistent sequence end"): what follows is never read by
+    /// the parser, so not by the walk.
+    #[test]
+    fn items_end_where_the_parser_counts_them() {
+        let file = |item_len: u32| {
+            let mut rest = vec![9, 0, 0x20, 0x10, b'S', b'Q', 0, 0, 0xFF, 0xFF, 0xFF, 0xFF];
+            rest.extend([0xFE, 0xFF, 0x00, 0xE0]);
+            rest.extend(item_len.to_le_bytes());
+            rest.extend([0x19, 0, 0x10, 0, b'S', b'L', 6, 0, 1, 2, 3, 4]);
+            rest.extend([0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0]);
+            rest.extend([9, 0, 0x10, 0x10, b'O', b'B', 0, 0, 0, 0, 0, 0x40]);
+            part10("1.2.840.10008.1.2.1", &rest)
+        };
+        let m = check_bytes("item-count", &file(14)).unwrap_err();
+        assert!(
+            m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
+            "{m}"
+        );
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-count-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("f.dcm");
+        std::fs::write(&f, file(12)).unwrap();
+        assert_eq!(check_lengths(&f).map_err(|e| e.to_string()), Ok(()));
+        let e = dicom_object::open_file(&f).expect_err("the parser stops at the item's end");
+        assert!(
+            format!("{e:?}").contains("InconsistentSequenceEnd"),
+            "{e:?}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Sequences may nest 128 deep (and `dicom-object`, which builds them by recursion,
+    /// then reads the file in a test thread's stack); deeper is refused.
+    #[test]
+    fn nesting_is_bounded() {
+        let nest = |depth: usize| {
+            let level = [
+                &[9, 0, 0x10, 0x10, b'S', b'Q', 0, 0, 0xFF, 0xFF, 0xFF, 0xFF][..],
+                &[0xFE, 0xFF, 0x00, 0xE0, 0xFF, 0xFF, 0xFF, 0xFF],
+            ]
+            .concat();
+            let close = [
+                &[0xFE, 0xFF, 0x0D, 0xE0, 0, 0, 0, 0][..],
+                &[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0],
+            ]
+            .concat();
+            let mut rest = level.repeat(depth);
+            rest.extend(close.repeat(depth));
+            part10("1.2.840.10008.1.2.1", &rest)
+        };
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-nest-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.dcm");
+        std::fs::write(&file, nest(super::NESTING_MAX)).unwrap();
+        assert_eq!(check_lengths(&file).map_err(|e| e.to_string()), Ok(()));
+        let obj = dicom_object::open_file(&file).expect("parsed");
+        assert!(obj.element(dicom_object::Tag(9, 0x1010)).is_ok());
+        std::fs::write(&file, nest(super::NESTING_MAX + 1)).unwrap();
+        let m = check_lengths(&file).unwrap_err().to_string();
+        assert!(m.contains("sequences nest more than 128 deep"), "{m}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
