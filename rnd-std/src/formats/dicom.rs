@@ -1419,12 +1419,24 @@ mod tests {
             rest.extend(e.to_le_bytes());
             rest.extend([12, 0, 0, 0]);
             rest.extend([9, 0, 0x10, 0, b'L', b'O', 12, 0, 0, 0, 0, 0]);
-            rest.extend([9, 0, 0x10, 0x10, b'O', b'B', 0, 0, 0, 0, 0, 0x40]);
-            let m = check_bytes("stray", &part10("1.2.840.10008.1.2.1", &rest)).unwrap_err();
+            rest.extend([9, 0, 0x10, 0x10, b'O', b'B', 0, 0]);
+            let mut claim = rest.clone();
+            claim.extend([0, 0, 0, 0x40]);
+            let m = check_bytes("stray", &part10("1.2.840.10008.1.2.1", &claim)).unwrap_err();
             assert!(
                 m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
                 "{e:04X}: {m}"
             );
+            // The parser itself: claiming 2 bytes, present, (0009,1010) is read.
+            rest.extend([2, 0, 0, 0, 7, 7]);
+            let dir = std::env::temp_dir().join(format!("rnd-dicom-el-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let f = dir.join("f.dcm");
+            std::fs::write(&f, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
+            let o = dicom_object::open_file(&f).expect("parsed");
+            let v = o.element(dicom_object::Tag(9, 0x1010)).expect("read");
+            assert_eq!(v.to_bytes().unwrap().as_ref(), &[7, 7]);
+            std::fs::remove_dir_all(&dir).unwrap();
         }
     }
 
@@ -1461,6 +1473,44 @@ mod tests {
             format!("{e:?}").contains("InconsistentSequenceEnd"),
             "{e:?}"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// After a nonzero PixelRepresentation (0028,0103), the parser reads a "US or SS"
+    /// element (here PixelPaddingValue, given as OB with 3 bytes) as SS, one whole
+    /// number, and the next header from its third byte: there (0009,1010) OB claims
+    /// 1 GiB. With PixelRepresentation 0 the 3 bytes are read as OB and nothing is
+    /// claimed.
+    #[test]
+    fn signed_pixels_make_us_or_ss_values_ss() {
+        let file = |signed: u8, claim: u32| {
+            let mut rest = vec![0x28, 0, 0x03, 0x01, b'U', b'S', 2, 0, signed, 0];
+            rest.extend([0x28, 0, 0x20, 0x01, b'O', b'B', 0, 0, 3, 0, 0, 0, 1, 2]);
+            rest.extend([9, 0, 0x10, 0x10, b'O', b'B', 0, 0]);
+            rest.extend(claim.to_le_bytes());
+            if claim == 2 {
+                rest.extend([7, 7]);
+            }
+            part10("1.2.840.10008.1.2.1", &rest)
+        };
+        let m = check_bytes("signed", &file(1, 1 << 30)).unwrap_err();
+        assert!(
+            m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
+            "{m}"
+        );
+        assert_eq!(check_bytes("unsigned", &file(0, 1 << 30)), Ok(()));
+        // The parser itself: with a claim of 2 bytes, present, it reads (0009,1010)
+        // only when the pixels are signed.
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-xs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("f.dcm");
+        for signed in [0, 1] {
+            std::fs::write(&f, file(signed, 2)).unwrap();
+            let read = dicom_object::open_file(&f)
+                .ok()
+                .and_then(|o| o.element(dicom_object::Tag(9, 0x1010)).ok().cloned());
+            assert_eq!(read.is_some(), signed == 1, "signed {signed}");
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
