@@ -577,10 +577,23 @@ fn walk_meta<R: std::io::Read>(
             return Ok(None);
         }
         s.bound(&h)?;
-        if h.tag == (0x0002, 0x0010) && h.len <= 64 {
-            let mut uid = vec![0u8; h.len as usize];
+        if h.tag == (0x0002, 0x0010) {
+            // The registry matches the UID with trailing whitespace and NULs trimmed,
+            // however long the padding: what counts is its first 64 bytes (a UID's
+            // most) and whether the rest is all padding.
+            let mut uid = vec![0u8; h.len.min(64) as usize];
             r.read_exact(&mut uid).map_err(|e| s.io(e))?;
-            ts = Some(String::from_utf8_lossy(&uid).into_owned());
+            let (mut rest, mut padded) = (h.len as usize - uid.len(), true);
+            let mut buf = [0u8; 4096];
+            while rest > 0 {
+                let k = rest.min(buf.len());
+                r.read_exact(&mut buf[..k]).map_err(|e| s.io(e))?;
+                padded &= buf[..k]
+                    .iter()
+                    .all(|&b| b == 0 || char::from(b).is_whitespace());
+                rest -= k;
+            }
+            ts = padded.then(|| String::from_utf8_lossy(&uid).into_owned());
         } else {
             skip(r, h.len).map_err(|e| s.io(e))?;
         }
@@ -1511,6 +1524,29 @@ mod tests {
                 .and_then(|o| o.element(dicom_object::Tag(9, 0x1010)).ok().cloned());
             assert_eq!(read.is_some(), signed == 1, "signed {signed}");
         }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A transfer syntax UID padded past 64 bytes is still the syntax (the registry
+    /// trims trailing spaces and NULs): the data set after it is walked in it.
+    #[test]
+    fn padded_transfer_syntaxes_are_read_as_the_registry_reads_them() {
+        let claim = [9, 0, 0x10, 0x10, b'O', b'B', 0, 0, 0, 0, 0, 0x40];
+        let ts = format!("1.2.840.10008.1.2.1{}", " ".repeat(81));
+        let m = check_bytes("padded-ts", &part10(&ts, &claim)).unwrap_err();
+        assert!(
+            m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
+            "{m}"
+        );
+        // The parser takes it as that syntax: (0009,1010), given 2 bytes, is read.
+        let mut small = claim.to_vec();
+        small.splice(8.., [2, 0, 0, 0, 7, 7]);
+        let dir = std::env::temp_dir().join(format!("rnd-dicom-ts-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("f.dcm");
+        std::fs::write(&f, part10(&ts, &small)).unwrap();
+        let o = dicom_object::open_file(&f).expect("parsed");
+        assert!(o.element(dicom_object::Tag(9, 0x1010)).is_ok());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
