@@ -187,6 +187,29 @@ fn bad_dicom_series_are_refused_clearly() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("(7FE0,0010) claims 4294967040 bytes"), "{err}");
+    // Sequences nested 10,000 deep before the pixel data (200 kB: the parser, which
+    // builds them by recursion, overflowed the stack and aborted) are refused.
+    let mut bytes = std::fs::read(&first).unwrap();
+    let level = [
+        &[9, 0, 0x10, 0x10, b'S', b'Q', 0, 0, 0xFF, 0xFF, 0xFF, 0xFF][..],
+        &[0xFE, 0xFF, 0x00, 0xE0, 0xFF, 0xFF, 0xFF, 0xFF],
+    ]
+    .concat();
+    let close = [
+        &[0xFE, 0xFF, 0x0D, 0xE0, 0, 0, 0, 0][..],
+        &[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0],
+    ]
+    .concat();
+    let nested = [level.repeat(10_000), close.repeat(10_000)].concat();
+    bytes.splice(at..at, nested);
+    let deep = dir.join("bad/deep");
+    std::fs::create_dir_all(&deep).unwrap();
+    std::fs::write(deep.join("slice"), &bytes).unwrap();
+    let o = rendr(&dir, &["info", "bad/deep"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("sequences nest more than 128 deep"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
     // One file of a folder with two series picks its own series.
     let d = dir.join("bad/two-series");
     let mut names: Vec<_> = std::fs::read_dir(&d)
