@@ -119,6 +119,29 @@ fn rle_segment_that_decodes_short_is_an_error() {
     );
 }
 
+/// A JPEG Baseline DICOM whose JPEG frame is 8 x 6 where Rows x Columns is 3 x 8 (found
+/// by the formats target: the registry's JPEG adapter copied the 48 decoded bytes into
+/// the 24 it had sized and panicked) is an error naming the file and both sizes.
+#[test]
+fn jpeg_frame_larger_than_rows_columns_is_an_error() {
+    refused(
+        "crash-jpeg-larger-than-rows-columns",
+        "JPEG pixel data: frame 0 is a 8 x 6 JPEG of 48 bytes; Rows x Columns x \
+         SamplesPerPixel x BitsAllocated/8 is 24 (8 x 3 x 1 x 1)",
+    );
+    // A JPEG Baseline slice whose frame fits (the seed) passes the check and loads.
+    let dir = rnd_tests::tmpdir("formats-jpeg-seed");
+    let file = dir.join("slice.dcm");
+    std::fs::copy(
+        rnd_tests::root().join("fuzz/seeds/formats/slice-jpeg.dcm"),
+        &file,
+    )
+    .unwrap();
+    let l = rnd_std::formats::read(&file, 1).expect("the JPEG seed loads");
+    assert!(volume_io::volume_from_nrrd(l.nrrd).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// An element with an unknown VR (`ES`) is read by `dicom-encoding` as UN, with a
 /// 4-byte length: here 2.1 GB, which its parser reserved before failing (found by the
 /// formats target, out of memory). The length check reads it the same way and refuses

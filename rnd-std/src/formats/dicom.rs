@@ -1186,6 +1186,93 @@ fn check_rle(o: &InMemDicomObject) -> Result<()> {
     Ok(())
 }
 
+/// The JPEG transfer syntaxes `dicom-transfer-syntax-registry`'s JPEG adapter decodes:
+/// baseline, extended, lossless, lossless first-order.
+const JPEG: [&str; 4] = [
+    "1.2.840.10008.1.2.4.50",
+    "1.2.840.10008.1.2.4.51",
+    "1.2.840.10008.1.2.4.57",
+    "1.2.840.10008.1.2.4.70",
+];
+
+/// JPEG pixel data of `o`, checked before `dicom-pixeldata` decodes it: its JPEG
+/// adapter sizes its output by Rows x Columns x SamplesPerPixel x frames and copies
+/// each decoded frame in without comparing (a frame whose JPEG header is larger made it
+/// panic). The frames are read here as the adapter reads them, one JPEG stream after
+/// another in the joined fragments, with the same decoder, and each one's size is
+/// checked from its header before it is decoded, and after. Where the decoder fails,
+/// the adapter fails too; that is left to it.
+fn check_jpeg(o: &InMemDicomObject) -> Result<()> {
+    let bad = |m: String| Err(Error::msg(format!("JPEG pixel data: {m}")));
+    let u16_of = |tag| elem(o, tag).and_then(|e| e.uint16().ok());
+    let (Some(rows), Some(cols), Some(spp), Some(bits)) = (
+        u16_of(tags::ROWS),
+        u16_of(tags::COLUMNS),
+        u16_of(tags::SAMPLES_PER_PIXEL),
+        u16_of(tags::BITS_ALLOCATED),
+    ) else {
+        return Ok(()); // the adapter refuses the image
+    };
+    if bits != 8 && bits != 16 {
+        return Ok(());
+    }
+    let frames = elem(o, tags::NUMBER_OF_FRAMES)
+        .and_then(|e| e.to_int::<u32>().ok())
+        .unwrap_or(1);
+    let Some(dicom_core::DicomValue::PixelSequence(seq)) =
+        elem(o, tags::PIXEL_DATA).map(|e| e.value())
+    else {
+        return Ok(()); // not encapsulated: the decoder says so
+    };
+    let per = u64::from(spp) * u64::from(bits / 8) * u64::from(rows) * u64::from(cols);
+    let room = per.saturating_mul(u64::from(frames));
+    let data: Vec<u8> = seq.fragments().iter().flatten().copied().collect();
+    let len = data.len() as u64;
+    let next_even = |x: u64| (x + 1) & !1;
+    let mut cur = std::io::Cursor::new(&data[..]);
+    let mut used = 0u64;
+    for i in 0..frames {
+        let mut d = jpeg_decoder::Decoder::new(&mut cur);
+        let Some(info) = d.read_info().ok().and_then(|_| d.info()) else {
+            return Ok(());
+        };
+        let claim =
+            u64::from(info.width) * u64::from(info.height) * info.pixel_format.pixel_bytes() as u64;
+        let too_big = |n: u64| {
+            bad(format!(
+                "frame {i} is a {} x {} JPEG of {n} bytes; Rows x Columns x SamplesPerPixel \
+                 x BitsAllocated/8 is {per} ({cols} x {rows} x {spp} x {})",
+                info.width,
+                info.height,
+                bits / 8
+            ))
+        };
+        if used + claim > room {
+            return too_big(claim);
+        }
+        let Ok(px) = d.decode() else {
+            return Ok(());
+        };
+        if used + px.len() as u64 > room {
+            return too_big(px.len() as u64);
+        }
+        used += px.len() as u64;
+        // The next frame starts at the next SOI marker, as the adapter finds it.
+        if next_even(cur.position()) >= next_even(len) || cur.position() + 2 >= len {
+            break;
+        }
+        loop {
+            let p = cur.position() as usize;
+            match (data.get(p), data.get(p + 1)) {
+                (Some(0xFF), Some(0xD8)) => break,
+                (Some(_), Some(_)) => cur.set_position(cur.position() + 1),
+                _ => return Ok(()),
+            }
+        }
+    }
+    Ok(())
+}
+
 /// How many bytes PackBits data decodes to, as `dicom-pixeldata`'s RLE reader decodes
 /// it (a literal run cut short by the end counts what is there); None when a replicate
 /// run lacks its byte.
@@ -1243,6 +1330,9 @@ fn pixels(frames: &[Frame], l: &Layout) -> Result<Data> {
         let ts = obj.meta().transfer_syntax().trim_end_matches('\0');
         if ts == RLE_LOSSLESS {
             check_rle(obj).map_err(|e| e.with_path(&f.file))?;
+        }
+        if JPEG.contains(&ts) {
+            check_jpeg(obj).map_err(|e| e.with_path(&f.file))?;
         }
         let dec = obj.decode_pixel_data().map_err(|e| {
             Error::at(
