@@ -1427,11 +1427,7 @@ mod tests {
         let mut rest = vec![0x19, 0, 0x10, 0, b'S', b'L', 6, 0, 1, 2, 3, 4];
         rest.extend([9, 0]); // the 2 bytes past the last whole number
         rest.extend([0x10, 0x10, b'O', b'B', b'L', b'O', 4, 0, 0, 0x40, 0, 0]);
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-whole-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let file = dir.join("f.dcm");
-        std::fs::write(&file, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
-        let m = check_lengths(&file).unwrap_err().to_string();
+        let m = check_bytes("whole", &part10("1.2.840.10008.1.2.1", &rest)).unwrap_err();
         assert!(
             m.contains("element (0009,1010) claims 1073741828 bytes; the file has 2 left"),
             "{m}"
@@ -1439,9 +1435,10 @@ mod tests {
         // Whole numbers: nothing left unread, nothing claimed past the end.
         let mut rest = vec![0x19, 0, 0x10, 0, b'S', b'L', 8, 0, 1, 2, 3, 4, 5, 6, 7, 8];
         rest.extend([0x10, 0x10, b'O', b'B', b'L', b'O', 4, 0, 0, 0x40, 0, 0]);
-        std::fs::write(&file, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
-        assert_eq!(check_lengths(&file).map_err(|e| e.to_string()), Ok(()));
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(
+            check_bytes("whole", &part10("1.2.840.10008.1.2.1", &rest)),
+            Ok(())
+        );
     }
 
     /// The length walk of a deflated data set: an honest one passes, one whose element
@@ -1463,14 +1460,8 @@ mod tests {
             x.extend([1, 2, 3, 4]);
             x
         };
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-deflated-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let file = dir.join("f.dcm");
         let ts = "1.2.840.10008.1.2.1.99";
-        let check = |bytes: Vec<u8>| {
-            std::fs::write(&file, bytes).unwrap();
-            check_lengths(&file).map_err(|e| e.to_string())
-        };
+        let check = |bytes: Vec<u8>| check_bytes("deflated", &bytes);
         assert_eq!(check(part10(ts, &deflate(&element(4)))), Ok(()));
         let m = check(part10(ts, &deflate(&element(1 << 30)))).unwrap_err();
         assert!(
@@ -1495,18 +1486,38 @@ mod tests {
             m.contains("claims 1073741824 bytes; the file has 4 left"),
             "{m}"
         );
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// Writes `bytes` as a file in a fresh folder and checks its lengths.
+    /// `bytes` written as `f.dcm` in a fresh folder of its own, removed when dropped.
+    struct Scratch {
+        dir: std::path::PathBuf,
+        file: std::path::PathBuf,
+    }
+
+    impl Scratch {
+        fn new(name: &str, bytes: &[u8]) -> Scratch {
+            let dir = std::env::temp_dir().join(format!("rnd-dicom-{name}-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let file = dir.join("f.dcm");
+            std::fs::write(&file, bytes).unwrap();
+            Scratch { dir, file }
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
+
+    /// The length walk of `bytes` read as a file.
     fn check_bytes(name: &str, bytes: &[u8]) -> Result<(), String> {
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let file = dir.join("f.dcm");
-        std::fs::write(&file, bytes).unwrap();
-        let got = check_lengths(&file).map_err(|e| e.to_string());
-        std::fs::remove_dir_all(&dir).unwrap();
-        got
+        check_lengths(&Scratch::new(name, bytes).file).map_err(|e| e.to_string())
+    }
+
+    /// `bytes` read as a file by dicom-object itself, the parser the walk models.
+    fn parsed(name: &str, bytes: &[u8]) -> Result<dicom_object::DefaultDicomObject, String> {
+        dicom_object::open_file(&Scratch::new(name, bytes).file).map_err(|e| format!("{e:?}"))
     }
 
     /// An item or sequence delimiter header where an element is expected (outside any
@@ -1532,14 +1543,9 @@ mod tests {
             );
             // The parser itself: claiming 2 bytes, present, (0009,1010) is read.
             rest.extend([2, 0, 0, 0, 7, 7]);
-            let dir = std::env::temp_dir().join(format!("rnd-dicom-el-{}", std::process::id()));
-            std::fs::create_dir_all(&dir).unwrap();
-            let f = dir.join("f.dcm");
-            std::fs::write(&f, part10("1.2.840.10008.1.2.1", &rest)).unwrap();
-            let o = dicom_object::open_file(&f).expect("parsed");
+            let o = parsed("stray", &part10("1.2.840.10008.1.2.1", &rest)).expect("parsed");
             let v = o.element(dicom_object::Tag(9, 0x1010)).expect("read");
             assert_eq!(v.to_bytes().unwrap().as_ref(), &[7, 7]);
-            std::fs::remove_dir_all(&dir).unwrap();
         }
     }
 
@@ -1566,17 +1572,9 @@ mod tests {
             m.contains("element (0009,1010) claims 1073741824 bytes; the file has 0 left"),
             "{m}"
         );
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-count-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("f.dcm");
-        std::fs::write(&f, file(12)).unwrap();
-        assert_eq!(check_lengths(&f).map_err(|e| e.to_string()), Ok(()));
-        let e = dicom_object::open_file(&f).expect_err("the parser stops at the item's end");
-        assert!(
-            format!("{e:?}").contains("InconsistentSequenceEnd"),
-            "{e:?}"
-        );
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(check_bytes("item-count", &file(12)), Ok(()));
+        let e = parsed("item-count", &file(12)).expect_err("the parser stops at the item's end");
+        assert!(e.contains("InconsistentSequenceEnd"), "{e}");
     }
 
     /// After a nonzero PixelRepresentation (0028,0103), the parser reads a "US or SS"
@@ -1604,17 +1602,12 @@ mod tests {
         assert_eq!(check_bytes("unsigned", &file(0, 1 << 30)), Ok(()));
         // The parser itself: with a claim of 2 bytes, present, it reads (0009,1010)
         // only when the pixels are signed.
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-xs-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("f.dcm");
         for signed in [0, 1] {
-            std::fs::write(&f, file(signed, 2)).unwrap();
-            let read = dicom_object::open_file(&f)
+            let read = parsed("signed", &file(signed, 2))
                 .ok()
                 .and_then(|o| o.element(dicom_object::Tag(9, 0x1010)).ok().cloned());
             assert_eq!(read.is_some(), signed == 1, "signed {signed}");
         }
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// A transfer syntax UID padded past 64 bytes is still the syntax (the registry
@@ -1631,13 +1624,8 @@ mod tests {
         // The parser takes it as that syntax: (0009,1010), given 2 bytes, is read.
         let mut small = claim.to_vec();
         small.splice(8.., [2, 0, 0, 0, 7, 7]);
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-ts-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("f.dcm");
-        std::fs::write(&f, part10(&ts, &small)).unwrap();
-        let o = dicom_object::open_file(&f).expect("parsed");
+        let o = parsed("padded-ts", &part10(&ts, &small)).expect("parsed");
         assert!(o.element(dicom_object::Tag(9, 0x1010)).is_ok());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// Sequences may nest 128 deep (and `dicom-object`, which builds them by recursion,
@@ -1659,17 +1647,12 @@ mod tests {
             rest.extend(close.repeat(depth));
             part10("1.2.840.10008.1.2.1", &rest)
         };
-        let dir = std::env::temp_dir().join(format!("rnd-dicom-nest-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let file = dir.join("f.dcm");
-        std::fs::write(&file, nest(super::NESTING_MAX)).unwrap();
-        assert_eq!(check_lengths(&file).map_err(|e| e.to_string()), Ok(()));
-        let obj = dicom_object::open_file(&file).expect("parsed");
+        let deepest = nest(super::NESTING_MAX);
+        assert_eq!(check_bytes("nest", &deepest), Ok(()));
+        let obj = parsed("nest", &deepest).expect("parsed");
         assert!(obj.element(dicom_object::Tag(9, 0x1010)).is_ok());
-        std::fs::write(&file, nest(super::NESTING_MAX + 1)).unwrap();
-        let m = check_lengths(&file).unwrap_err().to_string();
+        let m = check_bytes("nest", &nest(super::NESTING_MAX + 1)).unwrap_err();
         assert!(m.contains("sequences nest more than 128 deep"), "{m}");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// PackBits lengths as the RLE decoder counts them: literal runs (h >= 0: h + 1
