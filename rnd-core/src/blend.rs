@@ -124,6 +124,45 @@ impl FromStr for Blend {
 /// Most channels a probe has (the Hessian's 9).
 pub const MAX_CHANNELS: usize = 9;
 
+/// `max` as every ray loop takes it: `b` when it is greater than `a` or `a` is NaN,
+/// otherwise `a`. So of equal values (+0 and −0 among them) the earlier stays, NaNs are
+/// passed over, and a NaN results only when every value is one (the last). It is what
+/// `f32::max` compiles to on x86-64, written out so that its result does not depend on
+/// the compiler's choice for equal zeros; and it is associative, so a tree of it
+/// ([`max_first_of`]) gives the same bits as a chain.
+#[inline(always)]
+pub(crate) fn max_first(a: f32, b: f32) -> f32 {
+    if b > a || a.is_nan() {
+        b
+    } else {
+        a
+    }
+}
+
+/// [`max_first`] of `xs` in order (`xs` not empty), by a tree over sixteen at a time:
+/// the same bits as the chain `max_first(max_first(xs[0], xs[1]), xs[2])...`, with a
+/// quarter of its dependent steps. A group shorter than sixteen is filled up with
+/// copies of its last value, which cannot change the result (equal bits, later).
+#[inline(always)]
+pub(crate) fn max_first_of(xs: &[f32]) -> f32 {
+    const N: usize = 16;
+    let mut m = f32::NAN;
+    for (i, group) in xs.chunks(N).enumerate() {
+        let last = group[group.len() - 1];
+        let mut t = [last; N];
+        t[..group.len()].copy_from_slice(group);
+        let mut n = N;
+        while n > 1 {
+            n /= 2;
+            for j in 0..n {
+                t[j] = max_first(t[2 * j], t[2 * j + 1]);
+            }
+        }
+        m = if i == 0 { t[0] } else { max_first(m, t[0]) };
+    }
+    m
+}
+
 /// The running state of one ray's blend, for up to [`MAX_CHANNELS`] channels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Accum {
@@ -164,7 +203,7 @@ impl Accum {
         // The common blends here (inlined into the ray loops), the others out of line so
         // that they do not crowd the loops' code.
         match self.blend {
-            Blend::Max => self.pick_channels(x, first, f32::max),
+            Blend::Max => self.pick_channels(x, first, max_first),
             Blend::Sum | Blend::Mean => {
                 for c in 0..len {
                     self.acc[c] += x[c];
@@ -201,13 +240,20 @@ impl Accum {
     #[inline(always)]
     pub fn add_scalars(&mut self, xs: &[f32]) {
         debug_assert!(self.len == 1 && self.blend != Blend::Over);
-        let Some((&x0, rest)) = xs.split_first() else {
+        if xs.is_empty() {
             return;
-        };
+        }
         match self.blend {
             // `max` and the f32 sums inline into the loop; `min` and the f64 sums out of
             // line, as in `add`.
-            Blend::Max => self.acc[0] = self.picked(x0, rest, f32::max),
+            Blend::Max => {
+                let m = max_first_of(xs);
+                self.acc[0] = if self.count == 0 {
+                    m
+                } else {
+                    max_first(self.acc[0], m)
+                };
+            }
             Blend::Sum | Blend::Mean => {
                 let mut s = self.acc[0];
                 for &x in xs {
@@ -412,4 +458,54 @@ fn median(v: &mut [f32]) -> f32 {
     // The largest of the lower half is the other middle value.
     let lo = below.iter().copied().max_by(f32::total_cmp).unwrap_or(hi);
     ((f64::from(lo) + f64::from(hi)) / 2.0) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{max_first, max_first_of};
+    use proptest::prelude::*;
+
+    /// Values where the order of a `max` chain shows: zeros of both signs, NaNs with
+    /// different payloads and signs, infinities, equal numbers.
+    const POOL: [u32; 10] = [
+        0x0000_0000, // +0
+        0x8000_0000, // −0
+        0x7FC0_0000, // quiet NaN
+        0x7FC0_0001, // NaN, another payload
+        0xFFC0_0002, // NaN, negative
+        0x3F80_0000, // 1
+        0xBF80_0000, // −1
+        0x7F80_0000, // +inf
+        0xFF80_0000, // −inf
+        0x0000_0001, // the least subnormal
+    ];
+
+    proptest! {
+        /// The tree gives the chain's bits for any sequence of these values (and any
+        /// length, groups of sixteen and their remainders).
+        #[test]
+        fn max_tree_is_the_chain(ix in proptest::collection::vec(0usize..10, 1..40)) {
+            let xs: alloc::vec::Vec<f32> = ix.iter().map(|&i| f32::from_bits(POOL[i])).collect();
+            let chain = xs[1..].iter().fold(xs[0], |m, &x| max_first(m, x));
+            prop_assert_eq!(max_first_of(&xs).to_bits(), chain.to_bits(), "{:?}", xs);
+            // A running maximum taken in two parts, as the loops take batches.
+            let cut = xs.len() / 2;
+            if cut > 0 {
+                let two = max_first(max_first_of(&xs[..cut]), max_first_of(&xs[cut..]));
+                prop_assert_eq!(two.to_bits(), chain.to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn max_first_keeps_the_earlier_of_equals_and_passes_nans_over() {
+        let (z, nz, nan) = (0.0f32, -0.0f32, f32::NAN);
+        assert_eq!(max_first(z, nz).to_bits(), z.to_bits());
+        assert_eq!(max_first(nz, z).to_bits(), nz.to_bits());
+        assert_eq!(max_first(nan, -1.0), -1.0);
+        assert_eq!(max_first(-1.0, nan), -1.0);
+        assert_eq!(max_first(2.0, 3.0), 3.0);
+        let last = f32::from_bits(0x7FC0_0001);
+        assert_eq!(max_first_of(&[nan, last]).to_bits(), last.to_bits());
+    }
 }

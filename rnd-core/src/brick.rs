@@ -229,7 +229,7 @@ impl Partial {
             Blend::Max | Blend::Min if ba.count == 0 => {}
             Blend::Max => {
                 for c in 0..len {
-                    acc.acc[c] = fa.acc[c].max(ba.acc[c]);
+                    acc.acc[c] = crate::blend::max_first(fa.acc[c], ba.acc[c]);
                 }
             }
             Blend::Min => {
