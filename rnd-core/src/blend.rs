@@ -247,12 +247,13 @@ impl Accum {
             // `max` and the f32 sums inline into the loop; `min` and the f64 sums out of
             // line, as in `add`.
             Blend::Max => {
-                let m = max_first_of(xs);
-                self.acc[0] = if self.count == 0 {
-                    m
-                } else {
-                    max_first(self.acc[0], m)
-                };
+                // Most batches after the first lie wholly below the maximum (NaNs are not
+                // below it) and leave it as it is; the others take the tree.
+                let m0 = self.acc[0];
+                if self.count == 0 || !xs.iter().fold(true, |all, &x| all & (x < m0)) {
+                    let m = max_first_of(xs);
+                    self.acc[0] = if self.count == 0 { m } else { max_first(m0, m) };
+                }
             }
             Blend::Sum | Blend::Mean => {
                 let mut s = self.acc[0];
@@ -463,7 +464,7 @@ fn median(v: &mut [f32]) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::{max_first, max_first_of};
+    use super::{max_first, max_first_of, Accum, Blend, MAX_CHANNELS};
     use proptest::prelude::*;
 
     /// Values where the order of a `max` chain shows: zeros of both signs, NaNs with
@@ -495,6 +496,34 @@ mod tests {
                 let two = max_first(max_first_of(&xs[..cut]), max_first_of(&xs[cut..]));
                 prop_assert_eq!(two.to_bits(), chain.to_bits());
             }
+        }
+    }
+
+    proptest! {
+        /// `max` blended in batches of any lengths (`add_scalars`: a batch wholly below
+        /// the maximum leaves it, the others take the tree) gives the one-sample loop's
+        /// bits (`add`) and count.
+        #[test]
+        fn max_batches_are_the_one_sample_loop(
+            ix in proptest::collection::vec(0usize..10, 1..60),
+            cuts in proptest::collection::vec(1usize..20, 1..8),
+        ) {
+            let xs: alloc::vec::Vec<f32> = ix.iter().map(|&i| f32::from_bits(POOL[i])).collect();
+            let mut one = Accum::new(Blend::Max, 1);
+            for &x in &xs {
+                let mut a = [0.0f32; MAX_CHANNELS];
+                a[0] = x;
+                one.add(&a);
+            }
+            let mut batched = Accum::new(Blend::Max, 1);
+            let (mut at, mut c) = (0, cuts.iter().cycle());
+            while at < xs.len() {
+                let n = c.next().map_or(1, |&n| n.min(xs.len() - at));
+                batched.add_scalars(&xs[at..at + n]);
+                at += n;
+            }
+            prop_assert_eq!(batched.acc[0].to_bits(), one.acc[0].to_bits(), "{:?}", xs);
+            prop_assert_eq!(batched.count, one.count);
         }
     }
 
