@@ -327,7 +327,7 @@ impl Accum {
 
     /// Whether every one-channel sample of value at most `bound` leaves this `max`
     /// blend's bits as they are: after a first sample, below the maximum or equal to a
-    /// non-zero one. (Equal zeros would leave them too, as [`max_first`] keeps the
+    /// non-zero one. (Equal zeros would leave them too, as the loops' `max` keeps the
     /// earlier of equal values; letting them pass was measured no quicker, run 51.)
     #[inline(always)]
     pub fn below_max(&self, bound: f32) -> bool {
