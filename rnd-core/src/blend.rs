@@ -246,13 +246,14 @@ impl Accum {
         match self.blend {
             // `max` and the f32 sums inline into the loop; `min` and the f64 sums out of
             // line, as in `add`.
+            // The ray's first batch starts the maximum.
+            Blend::Max if self.count == 0 => self.acc[0] = max_first_of(xs),
             Blend::Max => {
-                // Most batches after the first lie wholly below the maximum (NaNs are not
-                // below it) and leave it as it is; the others take the tree.
+                // Most later batches lie wholly below the maximum (NaNs are not below it)
+                // and leave it as it is; the others take the tree.
                 let m0 = self.acc[0];
-                if self.count == 0 || !xs.iter().fold(true, |all, &x| all & (x < m0)) {
-                    let m = max_first_of(xs);
-                    self.acc[0] = if self.count == 0 { m } else { max_first(m0, m) };
+                if !xs.iter().fold(true, |all, &x| all & (x < m0)) {
+                    self.acc[0] = max_first(m0, max_first_of(xs));
                 }
             }
             Blend::Sum | Blend::Mean => {
