@@ -1018,13 +1018,8 @@ mod tests {
             }
         }
         fn one<K: Kernel<S>, const S: usize>(seed: u64, seen: &mut [usize; 2]) {
-            let mut x = seed;
-            let mut c = |s: f64| {
-                x = x
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                ((x >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * s
-            };
+            let mut rng = crate::test_rng::Lcg(seed);
+            let mut c = |s: f64| rng.centred(s);
             let sz = [7, 9, 6];
             let data = alloc::vec![0.0f32; 7 * 9 * 6];
             let itow = Affine4::from_columns(

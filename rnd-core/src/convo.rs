@@ -580,20 +580,7 @@ mod tests {
 
     use super::*;
 
-    /// A small deterministic generator of values in [-1000, 1000) with varied
-    /// magnitudes (so round-off differs between operation orders).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let u = (self.0 >> 40) as f32 / (1u64 << 24) as f32;
-            let e = ((self.0 >> 20) & 7) as i32 - 3;
-            (u * 2.0 - 1.0) * 10f32.powi(e)
-        }
-    }
+    use crate::test_rng::Lcg;
 
     /// The SSE sums are bit-identical to the generic loop (the order of operations is
     /// the same), value only and with the gradient.
@@ -602,10 +589,10 @@ mod tests {
         let mut g = Lcg(7);
         for _ in 0..2000 {
             let nb: [[[f32; 4]; 4]; 4] = core::array::from_fn(|_| {
-                core::array::from_fn(|_| core::array::from_fn(|_| g.next()))
+                core::array::from_fn(|_| core::array::from_fn(|_| g.varied()))
             });
-            let w: [[f32; 4]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
-            let d: [[f32; 4]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
+            let w: [[f32; 4]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
+            let d: [[f32; 4]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
             let (wv, dv) = (w.map(|x| sse::load(&x)), d.map(|x| sse::load(&x)));
             let row = |j: usize, k: usize| sse::load(&nb[k][j]);
             let a = sse::sums4::<true>(row, &wv, &dv);
@@ -626,7 +613,7 @@ mod tests {
             let nb: [[[f32; 2]; 2]; 2] = core::array::from_fn(|_| {
                 core::array::from_fn(|_| {
                     core::array::from_fn(|_| {
-                        let x = g.next();
+                        let x = g.varied();
                         if n % 2 == 0 {
                             x
                         } else {
@@ -635,8 +622,8 @@ mod tests {
                     })
                 })
             });
-            let w: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
-            let d: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
+            let w: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
+            let d: [[f32; 2]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
             // Rows (j, k) at j * 2 + k * 4 of a flat array, loaded as the volume path does.
             let flat: [f32; 8] = core::array::from_fn(|i| nb[i / 4][(i / 2) % 2][i % 2]);
             let short: [i16; 8] = flat.map(|x| x as i16);
@@ -659,8 +646,8 @@ mod tests {
     fn sse_world_gmags_match_scalar() {
         let mut g = Lcg(9);
         for _ in 0..3000 {
-            let m: [[f32; 3]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
-            let r: [[f32; 4]; 8] = core::array::from_fn(|_| core::array::from_fn(|_| g.next()));
+            let m: [[f32; 3]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
+            let r: [[f32; 4]; 8] = core::array::from_fn(|_| core::array::from_fn(|_| g.varied()));
             let a = world_gmags(&m, &r);
             for i in 0..8 {
                 let w = grad_to_world(&m, [r[i][1], r[i][2], r[i][3]]);
@@ -709,10 +696,12 @@ mod tests {
                 Convo::<V, K, 4>::with_simd(vol, Simd::at_most(crate::simd::SimdLevel::Avx2));
             for _ in 0..300 {
                 let n: [[i64; 3]; 8] = core::array::from_fn(|_| {
-                    core::array::from_fn(|a| (g.next().abs() * 97.0) as i64 % (sizes[a] as i64 - 3))
+                    core::array::from_fn(|a| {
+                        (g.varied().abs() * 97.0) as i64 % (sizes[a] as i64 - 3)
+                    })
                 });
                 let alpha: [[f64; 3]; 8] = core::array::from_fn(|_| {
-                    core::array::from_fn(|_| (g.next().abs() as f64).fract())
+                    core::array::from_fn(|_| (g.varied().abs() as f64).fract())
                 });
                 let (mut a, mut b) = ([[0.0f32; 4]; 8], [[0.0f32; 4]; 8]);
                 c.sums_n::<true, 8>(&n, &alpha, &mut a);
@@ -745,8 +734,8 @@ mod tests {
             }
         }
         let mut g = Lcg(11);
-        let f: std::vec::Vec<f32> = (0..9 * 7 * 8).map(|_| g.next()).collect();
-        let s: std::vec::Vec<i16> = (0..9 * 7 * 8).map(|_| (g.next() * 30.0) as i16).collect();
+        let f: std::vec::Vec<f32> = (0..9 * 7 * 8).map(|_| g.varied()).collect();
+        let s: std::vec::Vec<i16> = (0..9 * 7 * 8).map(|_| (g.varied() * 30.0) as i16).collect();
         check::<f32, Bspln3>(&f, &mut g);
         check::<f32, Ctmr>(&f, &mut g);
         check::<i16, Bspln3>(&s, &mut g);

@@ -73,6 +73,44 @@ pub mod voxel;
 
 pub use error::{Error, ErrorKind, Param, Result};
 
+/// Deterministic pseudo-random inputs for the unit tests.
+#[cfg(test)]
+pub(crate) mod test_rng {
+    /// A 64-bit linear congruential generator (Knuth's MMIX multiplier and increment).
+    pub(crate) struct Lcg(pub(crate) u64);
+
+    impl Lcg {
+        /// The next state.
+        fn step(&mut self) -> u64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            self.0
+        }
+
+        /// A number in [0, 1): the state's top 24 bits.
+        pub(crate) fn next(&mut self) -> f32 {
+            (self.step() >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        /// A number in [−s/2, s/2), from the state's top 24 bits.
+        pub(crate) fn centred(&mut self, s: f64) -> f64 {
+            ((self.step() >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * s
+        }
+
+        /// A number in [−1000, 1000) of varied magnitude (a power of ten from 10⁻³ to
+        /// 10⁴ times a number in [−1, 1)), so that round-off differs between orders of
+        /// operations.
+        pub(crate) fn varied(&mut self) -> f32 {
+            let x = self.step();
+            let u = (x >> 40) as f32 / (1u64 << 24) as f32;
+            let e = ((x >> 20) & 7) as i32 - 3;
+            (u * 2.0 - 1.0) * 10f32.powi(e)
+        }
+    }
+}
+
 /// The types and functions a program that renders or probes volumes uses, in one
 /// `use rnd_core::prelude::*;`.
 pub mod prelude {

@@ -784,17 +784,7 @@ mod lane_tests {
     use crate::kernel::{BoxK, Bspln2, Bspln3, C4Hexic, Ctmr, Tent};
     use crate::simd::{Simd, SimdLevel};
 
-    /// Deterministic pseudo-random numbers in [0, 1).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use crate::test_rng::Lcg;
 
     fn check<V: Voxel, K: Kernel<S>, const S: usize>(data: &[V], sz: [usize; 3], simd: Simd) {
         let vol = Volume::new(data, sz, Affine4::IDENTITY).unwrap();
