@@ -99,8 +99,8 @@ pub(crate) mod test_rng {
             ((self.step() >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * s
         }
 
-        /// A number in [−1000, 1000) of varied magnitude (a power of ten from 10⁻³ to
-        /// 10⁴ times a number in [−1, 1)), so that round-off differs between orders of
+        /// A number of varied magnitude, in [−10⁴, 10⁴): a number in [−1, 1) times a
+        /// power of ten from 10⁻³ to 10⁴, so that round-off differs between orders of
         /// operations.
         pub(crate) fn varied(&mut self) -> f32 {
             let x = self.step();
