@@ -796,9 +796,19 @@ mod lane_tests {
             // half-way between them; fill a random number of lanes.
             let want = 1 + round % LANES;
             let mut tries = 0;
+            // Every fourth round with all lanes: one line along the second axis, one
+            // voxel a point (supports a row apart: the AVX-512 sums share their rows).
+            let line = (round % 4 == 3 && sz[1] >= LANES + 8).then(|| {
+                let mut at = |n: usize| 3.0 + rng.next() * (n as f32 - 7.0);
+                [at(sz[0]), at(sz[1] - LANES + 1), at(sz[2])]
+            });
+            let want = if line.is_some() { LANES } else { want };
             while lanes.len() < want && tries < 100 {
                 tries += 1;
                 let p: V3 = core::array::from_fn(|a| {
+                    if let Some(q) = line {
+                        return q[a] + if a == 1 { (tries - 1) as f32 } else { 0.0 };
+                    }
                     let x = rng.next() * (sz[a] as f32 + 2.0) - 1.0;
                     match round % 3 {
                         0 => x,
@@ -853,17 +863,19 @@ mod lane_tests {
     /// AVX-512 (where the processor has it), AVX2 only, and neither.
     #[test]
     fn lanes_are_convolve_bit_for_bit() {
-        let sz = [11usize, 9, 13];
-        let n = sz[0] * sz[1] * sz[2];
-        let mut rng = Lcg(5);
-        let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();
-        let s: Vec<i16> = f.iter().map(|&x| x as i16).collect();
-        // AVX-512 (where the processor has it), AVX2 only, and no AVX: each level is
-        // passed down, so tests running at once cannot disturb each other.
-        for level in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline] {
-            let simd = Simd::at_most(level);
-            all_kernels(&f, sz, simd);
-            all_kernels(&s, sz, simd);
+        // (The second volume is long enough on its second axis for lines of points.)
+        for sz in [[11usize, 9, 13], [9, 27, 8]] {
+            let n = sz[0] * sz[1] * sz[2];
+            let mut rng = Lcg(5);
+            let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();
+            let s: Vec<i16> = f.iter().map(|&x| x as i16).collect();
+            // AVX-512 (where the processor has it), AVX2 only, and no AVX: each level is
+            // passed down, so tests running at once cannot disturb each other.
+            for level in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline] {
+                let simd = Simd::at_most(level);
+                all_kernels(&f, sz, simd);
+                all_kernels(&s, sz, simd);
+            }
         }
     }
 

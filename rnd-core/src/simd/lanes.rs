@@ -186,12 +186,18 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
 ) -> [[f32; LANES]; 4] {
     let value = !G || batch.value;
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        if value {
+        // Lane l's support one row after lane l − 1's (a ray along the volume's second
+        // axis, one voxel a step): a slice's rows are shared, see `sums4_avx512`.
+        let rows = (1..LANES).all(|l| sup.base[l] == sup.base[0] + l * sup.s0);
+        match (value, rows) {
             // SAFETY: AVX-512F is enabled here.
-            unsafe { sums4_avx512::<V, S, G, true>(sup, w, dw) }
-        } else {
+            (true, false) => unsafe { sums4_avx512::<V, S, G, true, false>(sup, w, dw) },
             // SAFETY: AVX-512F is enabled here.
-            unsafe { sums4_avx512::<V, S, G, false>(sup, w, dw) }
+            (false, false) => unsafe { sums4_avx512::<V, S, G, false, false>(sup, w, dw) },
+            // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
+            (true, true) => unsafe { sums4_avx512::<V, S, G, true, true>(sup, w, dw) },
+            // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
+            (false, true) => unsafe { sums4_avx512::<V, S, G, false, true>(sup, w, dw) },
         }
     })
 }
@@ -494,11 +500,25 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// gradient sum alone: 8 multiplies and 3 additions per voxel instead of 10 and 4, the
 /// same gradient bits.
 ///
+/// With `ROWS` each lane's support starts one row after the previous lane's, so row j
+/// of lane l is row 0 of lane l + j: each slice's nineteen rows are put into lanes
+/// once (rows 0–15, then rows 16–18), and rows 1–3 of all lanes are those shifted by
+/// one to three lanes (`valignd`). The same voxels reach the same lanes, so the same
+/// bits, with a quarter of the row loads and insertions and a third of the
+/// transposes (run 52: these share two ports on Intel's AVX-512 cores).
+///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// The CPU must support AVX-512F, and with `ROWS`, `sup.base[l] = sup.base[0] + l s0`
+/// for every lane l.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool, const VAL: bool>(
+unsafe fn sums4_avx512<
+    V: Voxel,
+    const S: usize,
+    const G: bool,
+    const VAL: bool,
+    const ROWS: bool,
+>(
     sup: &LaneSupports<'_, V, S>,
     w: &LaneWeights<S>,
     dw: &LaneWeights<S>,
@@ -516,10 +536,58 @@ unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool, const VAL: bool>
         // SAFETY: sixteen readable floats.
         unsafe { _mm512_loadu_ps(v.as_ptr()) }
     };
+    // Element i of every lane's row, from four registers holding the rows of lanes
+    // (q, q + 4, q + 8, q + 12) in their 128-bit parts (register q): a 4 × 4 transpose
+    // in each part.
+    let lanes_of = |a: [__m512; 4]| {
+        let (t0, t1) = (
+            _mm512_unpacklo_ps(a[0], a[1]),
+            _mm512_unpackhi_ps(a[0], a[1]),
+        );
+        let (t2, t3) = (
+            _mm512_unpacklo_ps(a[2], a[3]),
+            _mm512_unpackhi_ps(a[2], a[3]),
+        );
+        [
+            _mm512_shuffle_ps::<0x44>(t0, t2),
+            _mm512_shuffle_ps::<0xEE>(t0, t2),
+            _mm512_shuffle_ps::<0x44>(t1, t3),
+            _mm512_shuffle_ps::<0xEE>(t1, t3),
+        ]
+    };
+    // Lanes 0..15 of rows `lo` and `hi` side by side, shifted down by `j` lanes.
+    let shifted = |lo: __m512, hi: __m512, j: usize| {
+        let (lo, hi) = (_mm512_castps_si512(lo), _mm512_castps_si512(hi));
+        _mm512_castsi512_ps(match j {
+            0 => lo,
+            1 => _mm512_alignr_epi32::<1>(hi, lo),
+            2 => _mm512_alignr_epi32::<2>(hi, lo),
+            _ => _mm512_alignr_epi32::<3>(hi, lo),
+        })
+    };
     let mut val = _mm512_setzero_ps();
     let (mut g0, mut g1, mut g2) = (val, val, val);
     for k in 0..S {
         let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+        // With ROWS: rows 0..15 of slice k in lanes 0..15 (row 0 of each lane's
+        // support), and rows 16, 17, 18 in lanes 0, 1, 2 (rows of lane 15's support).
+        let (mut lo, mut hi) = ([_mm512_setzero_ps(); 4], [_mm512_setzero_ps(); 4]);
+        if ROWS {
+            let p = |r: usize| {
+                // SAFETY: row r ≤ 18 of slice k is row r − l of lane l's support for
+                // some lane l (r − l < 4; base[l] = base[0] + l s0, caller), so its
+                // four voxels lie in that support (checked in `Supports::new`).
+                unsafe { ptr.add(base[0] + r * s0 + k * s01) }
+            };
+            // SAFETY: as above, each pointer at four voxels of a support.
+            lo = lanes_of(core::array::from_fn(|q| unsafe {
+                V::load4x4([p(q), p(q + 4), p(q + 8), p(q + 12)])
+            }));
+            // SAFETY: as above (rows 16 to 18, the last repeated).
+            hi = lanes_of(core::array::from_fn(|q| unsafe {
+                V::load4x4([p(16 + q.min(2)); 4])
+            }));
+        }
         for j in 0..S {
             let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
             let o = j * s0 + k * s01;
@@ -533,15 +601,11 @@ unsafe fn sums4_avx512<V: Voxel, const S: usize, const G: bool, const VAL: bool>
                     ptr.add(base[l + 12] + o),
                 ])
             };
-            let (a0, a1, a2, a3) = (row(0), row(1), row(2), row(3));
-            let (t0, t1) = (_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
-            let (t2, t3) = (_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
-            let x = [
-                _mm512_shuffle_ps::<0x44>(t0, t2),
-                _mm512_shuffle_ps::<0xEE>(t0, t2),
-                _mm512_shuffle_ps::<0x44>(t1, t3),
-                _mm512_shuffle_ps::<0xEE>(t1, t3),
-            ];
+            let x = if ROWS {
+                core::array::from_fn(|i| shifted(lo[i], hi[i], j))
+            } else {
+                lanes_of([row(0), row(1), row(2), row(3)])
+            };
             for (i, &xi) in x.iter().enumerate() {
                 let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
                 let xw0w1 = _mm512_mul_ps(xw0, w1);
