@@ -504,8 +504,9 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// of lane l is row 0 of lane l + j: each slice's nineteen rows are put into lanes
 /// once (rows 0–15, then rows 16–18), and rows 1–3 of all lanes are those shifted by
 /// one to three lanes (`valignd`). The same voxels reach the same lanes, so the same
-/// bits, with a quarter of the row loads and insertions and a third of the
-/// transposes (run 52: these share two ports on Intel's AVX-512 cores).
+/// bits, with a third of the row loads, a quarter of the insertions and half the
+/// transposes, for twelve shifts a slice (run 52: on Intel's AVX-512 cores these and
+/// the arithmetic share two ports).
 ///
 /// # Safety
 /// The CPU must support AVX-512F, and with `ROWS`, `sup.base[l] = sup.base[0] + l s0`
