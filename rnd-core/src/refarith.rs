@@ -796,18 +796,36 @@ mod lane_tests {
             // half-way between them; fill a random number of lanes.
             let want = 1 + round % LANES;
             let mut tries = 0;
-            // Every fourth round with all lanes: one line along the second axis, one
-            // voxel a point (supports a row apart: the AVX-512 sums share their rows).
-            let line = (round % 4 == 3 && sz[1] >= LANES + 8).then(|| {
-                let mut at = |n: usize| 3.0 + rng.next() * (n as f32 - 7.0);
-                [at(sz[0]), at(sz[1] - LANES + 1), at(sz[2])]
+            // Every fourth round with all lanes: one line along the second or third axis
+            // (the one long enough), one voxel a point, forwards and backwards in turn
+            // (supports a row or a slice apart: the AVX-512 sums share their rows).
+            let ax = (1..3).find(|&a| sz[a] >= LANES + 8);
+            let back = round / 4 % 2 == 1;
+            let line = ax.filter(|_| round % 4 == 3).map(|ax| {
+                let mut at = |a: usize| {
+                    let n = if a == ax { sz[a] - LANES + 1 } else { sz[a] };
+                    let x = 3.0 + rng.next() * (n as f32 - 7.0);
+                    x + if a == ax && back {
+                        (LANES - 1) as f32
+                    } else {
+                        0.0
+                    }
+                };
+                ([at(0), at(1), at(2)], ax)
             });
             let want = if line.is_some() { LANES } else { want };
             while lanes.len() < want && tries < 100 {
                 tries += 1;
                 let p: V3 = core::array::from_fn(|a| {
-                    if let Some(q) = line {
-                        return q[a] + if a == 1 { (tries - 1) as f32 } else { 0.0 };
+                    if let Some((q, ax)) = line {
+                        let d = if a != ax {
+                            0.0
+                        } else if back {
+                            -((tries - 1) as f32)
+                        } else {
+                            (tries - 1) as f32
+                        };
+                        return q[a] + d;
                     }
                     let x = rng.next() * (sz[a] as f32 + 2.0) - 1.0;
                     match round % 3 {
@@ -863,8 +881,9 @@ mod lane_tests {
     /// AVX-512 (where the processor has it), AVX2 only, and neither.
     #[test]
     fn lanes_are_convolve_bit_for_bit() {
-        // (The second volume is long enough on its second axis for lines of points.)
-        for sz in [[11usize, 9, 13], [9, 27, 8]] {
+        // (The second and third volumes are long enough on their second and third axes
+        // for lines of points.)
+        for sz in [[11usize, 9, 13], [9, 27, 8], [9, 8, 27]] {
             let n = sz[0] * sz[1] * sz[2];
             let mut rng = Lcg(5);
             let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();

@@ -186,21 +186,46 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
 ) -> [[f32; LANES]; 4] {
     let value = !G || batch.value;
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        // Lane l's support one row after lane l − 1's (a ray along the volume's second
-        // axis, one voxel a step): a slice's rows are shared, see `sums4_avx512`.
-        let rows = (1..LANES).all(|l| sup.base[l] == sup.base[0] + l * sup.s0);
-        match (value, rows) {
+        // Lane l's support one row (or one slice) after lane l − 1's, or before it: a ray
+        // along the volume's second (third) axis, one voxel a step; those rows (slices)
+        // are shared, see `sums4_avx512`.
+        let b = &sup.base;
+        let up = |d: usize| (1..LANES).all(|l| b[l] == b[0] + l * d);
+        let down = |d: usize| (1..LANES).all(|l| b[l] + l * d == b[0]);
+        let (share, desc) = if up(sup.s0) {
+            (ROWS, false)
+        } else if down(sup.s0) {
+            (ROWS, true)
+        } else if up(sup.s01) {
+            (SLICES, false)
+        } else if down(sup.s01) {
+            (SLICES, true)
+        } else {
+            (0, false)
+        };
+        match (value, share) {
             // SAFETY: AVX-512F is enabled here.
-            (true, false) => unsafe { sums4_avx512::<V, S, G, true, false>(sup, w, dw) },
+            (true, 0) => unsafe { sums4_avx512::<V, S, G, true, 0>(sup, w, dw, false) },
             // SAFETY: AVX-512F is enabled here.
-            (false, false) => unsafe { sums4_avx512::<V, S, G, false, false>(sup, w, dw) },
+            (false, 0) => unsafe { sums4_avx512::<V, S, G, false, 0>(sup, w, dw, false) },
             // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
-            (true, true) => unsafe { sums4_avx512::<V, S, G, true, true>(sup, w, dw) },
+            (true, ROWS) => unsafe { sums4_avx512::<V, S, G, true, ROWS>(sup, w, dw, desc) },
             // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
-            (false, true) => unsafe { sums4_avx512::<V, S, G, false, true>(sup, w, dw) },
+            (false, ROWS) => unsafe { sums4_avx512::<V, S, G, false, ROWS>(sup, w, dw, desc) },
+            // SAFETY: AVX-512F is enabled here, and the supports are a slice apart.
+            (true, _) => unsafe { sums4_avx512::<V, S, G, true, SLICES>(sup, w, dw, desc) },
+            // SAFETY: AVX-512F is enabled here, and the supports are a slice apart.
+            (false, _) => unsafe { sums4_avx512::<V, S, G, false, SLICES>(sup, w, dw, desc) },
         }
     })
 }
+
+/// [`sums4_avx512`]'s `SHARE` for lanes whose supports are a row apart.
+#[cfg(target_arch = "x86_64")]
+const ROWS: usize = 1;
+/// [`sums4_avx512`]'s `SHARE` for lanes whose supports are a slice apart.
+#[cfg(target_arch = "x86_64")]
+const SLICES: usize = 2;
 
 /// [`lane_sums`] compiled for AVX2.
 ///
@@ -500,17 +525,22 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// gradient sum alone: 8 multiplies and 3 additions per voxel instead of 10 and 4, the
 /// same gradient bits.
 ///
-/// With `ROWS` each lane's support starts one row after the previous lane's, so row j
-/// of lane l is row 0 of lane l + j: each slice's nineteen rows are put into lanes
-/// once (rows 0–15, then rows 16–18), and rows 1–3 of all lanes are those shifted by
+/// With `SHARE` = `ROWS` each lane's support starts one row after the previous lane's
+/// (or before it, with `desc`), so row j of lane l is row 0 of lane l + j (l − j):
+/// each slice's nineteen rows are put into lanes once (each lane's row 0, then the
+/// three rows past the last lane's), and rows 1–3 of all lanes are those shifted by
 /// one to three lanes (`valignd`). The same voxels reach the same lanes, so the same
 /// bits, with a third of the row loads, a quarter of the insertions and half the
 /// transposes, for twelve shifts a slice (run 52: on Intel's AVX-512 cores these and
-/// the arithmetic share two ports).
+/// the arithmetic share two ports). With `SLICES` the same along the third axis: each
+/// lane's support starts one slice after (before) the previous lane's, so row j of the
+/// nineteen slices is put into lanes once, before the sums, and slice k of all lanes is
+/// that shifted by k lanes.
 ///
 /// # Safety
-/// The CPU must support AVX-512F, and with `ROWS`, `sup.base[l] = sup.base[0] + l s0`
-/// for every lane l.
+/// The CPU must support AVX-512F; with `ROWS`, `sup.base[l] = sup.base[0] + l s0` for
+/// every lane l (`sup.base[l] + l s0 = sup.base[0]` with `desc`), and with `SLICES` the
+/// same with `s01`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn sums4_avx512<
@@ -518,11 +548,12 @@ unsafe fn sums4_avx512<
     const S: usize,
     const G: bool,
     const VAL: bool,
-    const ROWS: bool,
+    const SHARE: usize,
 >(
     sup: &LaneSupports<'_, V, S>,
     w: &LaneWeights<S>,
     dw: &LaneWeights<S>,
+    desc: bool,
 ) -> [[f32; LANES]; 4] {
     use core::arch::x86_64::*;
     assert!(S == 4 && LANES == 16);
@@ -556,39 +587,64 @@ unsafe fn sums4_avx512<
             _mm512_shuffle_ps::<0xEE>(t1, t3),
         ]
     };
-    // Lanes 0..15 of rows `lo` and `hi` side by side, shifted down by `j` lanes.
-    let shifted = |lo: __m512, hi: __m512, j: usize| {
-        let (lo, hi) = (_mm512_castps_si512(lo), _mm512_castps_si512(hi));
-        _mm512_castsi512_ps(match j {
-            0 => lo,
-            1 => _mm512_alignr_epi32::<1>(hi, lo),
-            2 => _mm512_alignr_epi32::<2>(hi, lo),
-            _ => _mm512_alignr_epi32::<3>(hi, lo),
+    // With ROWS (SLICES), `stride` s0 (s01): element i of row (slice) t of every lane's
+    // support, t = 0..3, for the rows `off` from each support's first voxel (the slice
+    // of rows, or the row of slices). Each lane's row 0 is put into lanes, and the three
+    // past the last lane's (lane 15's rows 1–3, or with `desc` lane 0's); row t of lane l
+    // is row 0 of lane l + t (l − t), so row t of all lanes is those shifted by t lanes.
+    let spread = |off: usize, stride: usize| -> [[__m512; 4]; 4] {
+        // SAFETY: base[l] + off + r stride (r < 4, off within a support: the caller's
+        // j s0 or k s01) lies in lane l's support, and its four voxels (S is 4; checked
+        // in `Supports::new`).
+        let p = |l: usize, r: usize| unsafe { ptr.add(base[l] + off + r * stride) };
+        // SAFETY: as above, each pointer at four voxels of a support.
+        let lo = lanes_of(core::array::from_fn(|q| unsafe {
+            V::load4x4([p(q, 0), p(q + 4, 0), p(q + 8, 0), p(q + 12, 0)])
+        }));
+        // Lanes 0–2 get lane 15's rows 1–3 (lanes 13–15 lane 0's rows 3–1 with `desc`):
+        // register q's parts all the same row, so its lanes 4m + q hold it for every m.
+        // SAFETY: as above.
+        let hi = lanes_of(core::array::from_fn(|q| unsafe {
+            V::load4x4(
+                [if desc {
+                    p(0, 4 - q.max(1))
+                } else {
+                    p(15, 1 + q.min(2))
+                }; 4],
+            )
+        }));
+        core::array::from_fn(|t| {
+            core::array::from_fn(|i| {
+                let (lo, hi) = (_mm512_castps_si512(lo[i]), _mm512_castps_si512(hi[i]));
+                _mm512_castsi512_ps(match (t, desc) {
+                    (0, _) => lo,
+                    (1, false) => _mm512_alignr_epi32::<1>(hi, lo),
+                    (2, false) => _mm512_alignr_epi32::<2>(hi, lo),
+                    (_, false) => _mm512_alignr_epi32::<3>(hi, lo),
+                    (1, true) => _mm512_alignr_epi32::<15>(lo, hi),
+                    (2, true) => _mm512_alignr_epi32::<14>(lo, hi),
+                    (_, true) => _mm512_alignr_epi32::<13>(lo, hi),
+                })
+            })
         })
     };
+    // With SLICES: row j of every lane's slices 0..3, for every j, before the sums.
+    let mut by_row = [[[_mm512_setzero_ps(); 4]; 4]; 4];
+    if SHARE == SLICES {
+        for (j, r) in by_row.iter_mut().enumerate() {
+            *r = spread(j * s0, s01);
+        }
+    }
     let mut val = _mm512_setzero_ps();
     let (mut g0, mut g1, mut g2) = (val, val, val);
     for k in 0..S {
         let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
-        // With ROWS: rows 0..15 of slice k in lanes 0..15 (row 0 of each lane's
-        // support), and rows 16, 17, 18 in lanes 0, 1, 2 (rows of lane 15's support).
-        let (mut lo, mut hi) = ([_mm512_setzero_ps(); 4], [_mm512_setzero_ps(); 4]);
-        if ROWS {
-            let p = |r: usize| {
-                // SAFETY: row r ≤ 18 of slice k is row r − l of lane l's support for
-                // some lane l (r − l < 4; base[l] = base[0] + l s0, caller), so its
-                // four voxels lie in that support (checked in `Supports::new`).
-                unsafe { ptr.add(base[0] + r * s0 + k * s01) }
-            };
-            // SAFETY: as above, each pointer at four voxels of a support.
-            lo = lanes_of(core::array::from_fn(|q| unsafe {
-                V::load4x4([p(q), p(q + 4), p(q + 8), p(q + 12)])
-            }));
-            // SAFETY: as above (rows 16 to 18, the last repeated).
-            hi = lanes_of(core::array::from_fn(|q| unsafe {
-                V::load4x4([p(16 + q.min(2)); 4])
-            }));
-        }
+        // With ROWS: rows 0..3 of every lane's slice k.
+        let by_slice = if SHARE == ROWS {
+            spread(k * s01, s0)
+        } else {
+            [[_mm512_setzero_ps(); 4]; 4]
+        };
         for j in 0..S {
             let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
             let o = j * s0 + k * s01;
@@ -602,10 +658,10 @@ unsafe fn sums4_avx512<
                     ptr.add(base[l + 12] + o),
                 ])
             };
-            let x = if ROWS {
-                core::array::from_fn(|i| shifted(lo[i], hi[i], j))
-            } else {
-                lanes_of([row(0), row(1), row(2), row(3)])
+            let x: [__m512; 4] = match SHARE {
+                ROWS => by_slice[j],
+                SLICES => by_row[j][k],
+                _ => lanes_of([row(0), row(1), row(2), row(3)]),
             };
             for (i, &xi) in x.iter().enumerate() {
                 let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
