@@ -592,7 +592,7 @@ unsafe fn sums4_avx512<
     // of rows, or the row of slices). Each lane's row 0 is put into lanes, and the three
     // past the last lane's (lane 15's rows 1–3, or with `desc` lane 0's); row t of lane l
     // is row 0 of lane l + t (l − t), so row t of all lanes is those shifted by t lanes.
-    let spread = |off: usize, stride: usize| -> [[__m512; 4]; 4] {
+    let spread = |off: usize, stride: usize| -> [[__m512; 4]; 2] {
         // SAFETY: base[l] + off + r stride (r < 4, off within a support: the caller's
         // j s0 or k s01) lies in lane l's support, and its four voxels (S is 4; checked
         // in `Supports::new`).
@@ -613,23 +613,23 @@ unsafe fn sums4_avx512<
                 }; 4],
             )
         }));
-        core::array::from_fn(|t| {
-            core::array::from_fn(|i| {
-                let (lo, hi) = (_mm512_castps_si512(lo[i]), _mm512_castps_si512(hi[i]));
-                _mm512_castsi512_ps(match (t, desc) {
-                    (0, _) => lo,
-                    (1, false) => _mm512_alignr_epi32::<1>(hi, lo),
-                    (2, false) => _mm512_alignr_epi32::<2>(hi, lo),
-                    (_, false) => _mm512_alignr_epi32::<3>(hi, lo),
-                    (1, true) => _mm512_alignr_epi32::<15>(lo, hi),
-                    (2, true) => _mm512_alignr_epi32::<14>(lo, hi),
-                    (_, true) => _mm512_alignr_epi32::<13>(lo, hi),
-                })
-            })
+        [lo, hi]
+    };
+    // Row t of every lane from `spread`'s rows: element i.
+    let shift = |[lo, hi]: &[[__m512; 4]; 2], t: usize, i: usize| {
+        let (lo, hi) = (_mm512_castps_si512(lo[i]), _mm512_castps_si512(hi[i]));
+        _mm512_castsi512_ps(match (t, desc) {
+            (0, _) => lo,
+            (1, false) => _mm512_alignr_epi32::<1>(hi, lo),
+            (2, false) => _mm512_alignr_epi32::<2>(hi, lo),
+            (_, false) => _mm512_alignr_epi32::<3>(hi, lo),
+            (1, true) => _mm512_alignr_epi32::<15>(lo, hi),
+            (2, true) => _mm512_alignr_epi32::<14>(lo, hi),
+            (_, true) => _mm512_alignr_epi32::<13>(lo, hi),
         })
     };
     // With SLICES: row j of every lane's slices 0..3, for every j, before the sums.
-    let mut by_row = [[[_mm512_setzero_ps(); 4]; 4]; 4];
+    let mut by_row = [[[_mm512_setzero_ps(); 4]; 2]; 4];
     if SHARE == SLICES {
         for (j, r) in by_row.iter_mut().enumerate() {
             *r = spread(j * s0, s01);
@@ -643,7 +643,7 @@ unsafe fn sums4_avx512<
         let by_slice = if SHARE == ROWS {
             spread(k * s01, s0)
         } else {
-            [[_mm512_setzero_ps(); 4]; 4]
+            [[_mm512_setzero_ps(); 4]; 2]
         };
         for j in 0..S {
             let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
@@ -659,8 +659,8 @@ unsafe fn sums4_avx512<
                 ])
             };
             let x: [__m512; 4] = match SHARE {
-                ROWS => by_slice[j],
-                SLICES => by_row[j][k],
+                ROWS => core::array::from_fn(|i| shift(&by_slice, j, i)),
+                SLICES => core::array::from_fn(|i| shift(&by_row[j], k, i)),
                 _ => lanes_of([row(0), row(1), row(2), row(3)]),
             };
             for (i, &xi) in x.iter().enumerate() {
