@@ -208,13 +208,13 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
             (true, 0) => unsafe { sums4_avx512::<V, S, G, true, 0>(sup, w, dw, false) },
             // SAFETY: AVX-512F is enabled here.
             (false, 0) => unsafe { sums4_avx512::<V, S, G, false, 0>(sup, w, dw, false) },
-            // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
+            // SAFETY: AVX-512F is enabled here (the supports are a row apart).
             (true, ROWS) => unsafe { sums4_avx512::<V, S, G, true, ROWS>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here, and the supports are a row apart.
+            // SAFETY: AVX-512F is enabled here (the supports are a row apart).
             (false, ROWS) => unsafe { sums4_avx512::<V, S, G, false, ROWS>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here, and the supports are a slice apart.
+            // SAFETY: AVX-512F is enabled here (the supports are a slice apart).
             (true, _) => unsafe { sums4_avx512::<V, S, G, true, SLICES>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here, and the supports are a slice apart.
+            // SAFETY: AVX-512F is enabled here (the supports are a slice apart).
             (false, _) => unsafe { sums4_avx512::<V, S, G, false, SLICES>(sup, w, dw, desc) },
         }
     })
@@ -537,10 +537,13 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// nineteen slices is put into lanes once, before the sums, and slice k of all lanes is
 /// that shifted by k lanes.
 ///
-/// # Safety
-/// The CPU must support AVX-512F; with `ROWS`, `sup.base[l] = sup.base[0] + l s0` for
+/// Every voxel read lies in a lane's checked support whatever the lanes' placement;
+/// the sums are right with `ROWS` only where `sup.base[l] = sup.base[0] + l s0` for
 /// every lane l (`sup.base[l] + l s0 = sup.base[0]` with `desc`), and with `SLICES` the
 /// same with `s01`.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn sums4_avx512<
