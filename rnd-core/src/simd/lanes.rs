@@ -590,20 +590,32 @@ unsafe fn sums4_avx512<
             _mm512_shuffle_ps::<0xEE>(t1, t3),
         ]
     };
+    // Element i of every lane's row `o` voxels from its support's first (`o` a row of the
+    // support: j s0 + k s01, j, k < 4).
+    let lanes_at = |o: usize| {
+        // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
+        // `Supports::new`; S is 4).
+        let row = |l: usize| unsafe {
+            V::load4x4([
+                ptr.add(base[l] + o),
+                ptr.add(base[l + 4] + o),
+                ptr.add(base[l + 8] + o),
+                ptr.add(base[l + 12] + o),
+            ])
+        };
+        lanes_of([row(0), row(1), row(2), row(3)])
+    };
     // With ROWS (SLICES), `stride` s0 (s01): element i of row (slice) t of every lane's
     // support, t = 0..3, for the rows `off` from each support's first voxel (the slice
     // of rows, or the row of slices). Each lane's row 0 is put into lanes, and the three
     // past the last lane's (lane 15's rows 1–3, or with `desc` lane 0's); row t of lane l
     // is row 0 of lane l + t (l − t), so row t of all lanes is those shifted by t lanes.
     let spread = |off: usize, stride: usize| -> [[__m512; 4]; 2] {
+        let lo = lanes_at(off);
         // SAFETY: base[l] + off + r stride (r < 4, off within a support: the caller's
         // j s0 or k s01) lies in lane l's support, and its four voxels (S is 4; checked
         // in `Supports::new`).
         let p = |l: usize, r: usize| unsafe { ptr.add(base[l] + off + r * stride) };
-        // SAFETY: as above, each pointer at four voxels of a support.
-        let lo = lanes_of(core::array::from_fn(|q| unsafe {
-            V::load4x4([p(q, 0), p(q + 4, 0), p(q + 8, 0), p(q + 12, 0)])
-        }));
         // Lanes 0–2 get lane 15's rows 1–3 (lanes 13–15 lane 0's rows 3–1 with `desc`):
         // register q's parts all the same row, so its lanes 4m + q hold it for every m.
         // SAFETY: as above.
@@ -650,21 +662,10 @@ unsafe fn sums4_avx512<
         };
         for j in 0..S {
             let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
-            let o = j * s0 + k * s01;
-            // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
-            // `Supports::new`; S is 4).
-            let row = |l: usize| unsafe {
-                V::load4x4([
-                    ptr.add(base[l] + o),
-                    ptr.add(base[l + 4] + o),
-                    ptr.add(base[l + 8] + o),
-                    ptr.add(base[l + 12] + o),
-                ])
-            };
             let x: [__m512; 4] = match SHARE {
                 ROWS => core::array::from_fn(|i| shift(&by_slice, j, i)),
                 SLICES => core::array::from_fn(|i| shift(&by_row[j], k, i)),
-                _ => lanes_of([row(0), row(1), row(2), row(3)]),
+                _ => lanes_at(j * s0 + k * s01),
             };
             for (i, &xi) in x.iter().enumerate() {
                 let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
