@@ -796,10 +796,10 @@ mod lane_tests {
             // half-way between them; fill a random number of lanes.
             let want = 1 + round % LANES;
             let mut tries = 0;
-            // Every fourth round with all lanes: one line along the second or third axis
-            // (the one long enough), one voxel a point, forwards and backwards in turn
-            // (supports a row or a slice apart: the AVX-512 sums share their rows).
-            let ax = (1..3).find(|&a| sz[a] >= LANES + 8);
+            // Every fourth round with all lanes: one line along the axis long enough (if
+            // any), one voxel a point, forwards and backwards in turn (supports a voxel,
+            // a row or a slice apart: the AVX-512 sums load runs or share rows).
+            let ax = (0..3).find(|&a| sz[a] >= LANES + 8);
             let back = round / 4 % 2 == 1;
             let line = ax.filter(|_| round % 4 == 3).map(|ax| {
                 let mut at = |a: usize| {
@@ -881,9 +881,9 @@ mod lane_tests {
     /// AVX-512 (where the processor has it), AVX2 only, and neither.
     #[test]
     fn lanes_are_convolve_bit_for_bit() {
-        // (The second and third volumes are long enough on their second and third axes
+        // (The last three volumes are long enough on their first, second and third axes
         // for lines of points.)
-        for sz in [[11usize, 9, 13], [9, 27, 8], [9, 8, 27]] {
+        for sz in [[11usize, 9, 13], [27, 9, 8], [9, 27, 8], [9, 8, 27]] {
             let n = sz[0] * sz[1] * sz[2];
             let mut rng = Lcg(5);
             let f: Vec<f32> = (0..n).map(|_| rng.next() * 2000.0 - 700.0).collect();

@@ -188,7 +188,8 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
         // Lane l's support one row (or one slice) after lane l − 1's, or before it: a ray
         // along the volume's second (third) axis, one voxel a step; those rows (slices)
-        // are shared, see `sums4_avx512`.
+        // are shared. One voxel after or before it (a ray along the first axis): each
+        // row of all lanes is one load. See `sums4_avx512`.
         let b = &sup.base;
         let up = |d: usize| (1..LANES).all(|l| b[l] == b[0] + l * d);
         let down = |d: usize| (1..LANES).all(|l| b[l] + l * d == b[0]);
@@ -200,6 +201,10 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
             (SLICES, false)
         } else if down(sup.s01) {
             (SLICES, true)
+        } else if up(1) {
+            (RUN, false)
+        } else if down(1) {
+            (RUN, true)
         } else {
             (0, false)
         };
@@ -208,6 +213,11 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
             (true, 0) => unsafe { sums4_avx512::<V, S, G, true, 0>(sup, w, dw, false) },
             // SAFETY: AVX-512F is enabled here.
             (false, 0) => unsafe { sums4_avx512::<V, S, G, false, 0>(sup, w, dw, false) },
+            // SAFETY: AVX-512F is enabled here, and lane l's support starts l voxels
+            // after lane 0's (before it, with `desc`).
+            (true, RUN) => unsafe { sums4_avx512::<V, S, G, true, RUN>(sup, w, dw, desc) },
+            // SAFETY: as above.
+            (false, RUN) => unsafe { sums4_avx512::<V, S, G, false, RUN>(sup, w, dw, desc) },
             // SAFETY: AVX-512F is enabled here (the supports are a row apart).
             (true, ROWS) => unsafe { sums4_avx512::<V, S, G, true, ROWS>(sup, w, dw, desc) },
             // SAFETY: AVX-512F is enabled here (the supports are a row apart).
@@ -226,6 +236,9 @@ const ROWS: usize = 1;
 /// [`sums4_avx512`]'s `SHARE` for lanes whose supports are a slice apart.
 #[cfg(target_arch = "x86_64")]
 const SLICES: usize = 2;
+/// [`sums4_avx512`]'s `SHARE` for lanes whose supports are a voxel apart.
+#[cfg(target_arch = "x86_64")]
+const RUN: usize = 3;
 
 /// [`lane_sums`] compiled for AVX2.
 ///
@@ -537,13 +550,19 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// nineteen slices is put into lanes once, before the sums, and slice k of all lanes is
 /// that shifted by k lanes.
 ///
-/// Every voxel read lies in a lane's checked support whatever the lanes' placement;
-/// the sums are right with `ROWS` only where `sup.base[l] = sup.base[0] + l s0` for
-/// every lane l (`sup.base[l] + l s0 = sup.base[0]` with `desc`), and with `SLICES` the
-/// same with `s01`.
+/// With `RUN` each lane's support starts one voxel after the previous lane's (before
+/// it, with `desc`: a ray along the first axis), so element i of a row of every lane is
+/// one load of sixteen consecutive voxels (in reverse lane order with `desc`, put back
+/// by one permute): no insertions, transposes or shifts.
+///
+/// With `ROWS` and `SLICES` every voxel read lies in a lane's checked support whatever
+/// the lanes' placement; the sums are right with `ROWS` only where `sup.base[l] =
+/// sup.base[0] + l s0` for every lane l (`sup.base[l] + l s0 = sup.base[0]` with
+/// `desc`), and with `SLICES` the same with `s01`.
 ///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// The CPU must support AVX-512F, and with `RUN` `sup.base[l] = sup.base[0] + l` for
+/// every lane l (`sup.base[l] + l = sup.base[0]` with `desc`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn sums4_avx512<
@@ -643,6 +662,8 @@ unsafe fn sums4_avx512<
             (_, true) => _mm512_alignr_epi32::<13>(lo, hi),
         })
     };
+    // With RUN and `desc`: lanes in the opposite order.
+    let backwards = _mm512_set_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     // With SLICES: row j of every lane's slices 0..3, for every j, before the sums.
     let mut by_row = [[[_mm512_setzero_ps(); 4]; 2]; 4];
     if SHARE == SLICES {
@@ -665,6 +686,19 @@ unsafe fn sums4_avx512<
             let x: [__m512; 4] = match SHARE {
                 ROWS => core::array::from_fn(|i| shift(&by_slice, j, i)),
                 SLICES => core::array::from_fn(|i| shift(&by_row[j], k, i)),
+                RUN => core::array::from_fn(|i| {
+                    let first = if desc { base[LANES - 1] } else { base[0] };
+                    // SAFETY: lane l's support starts at base[0] + l (base[15] + 15 − l
+                    // with `desc`: the caller's promise), so voxel m of these sixteen
+                    // is lane m's (lane 15 − m's) voxel i of this row, in its checked
+                    // support.
+                    let x = unsafe { V::load16(ptr.add(first + j * s0 + k * s01 + i)) };
+                    if desc {
+                        _mm512_permutexvar_ps(backwards, x)
+                    } else {
+                        x
+                    }
+                }),
                 _ => lanes_at(j * s0 + k * s01),
             };
             for (i, &xi) in x.iter().enumerate() {

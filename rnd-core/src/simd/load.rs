@@ -33,6 +33,13 @@ pub trait Load: Copy {
     /// support AVX-512F.
     #[cfg(target_arch = "x86_64")]
     unsafe fn load4x4(p: [*const Self; 4]) -> core::arch::x86_64::__m512;
+    /// Sixteen consecutive voxels starting at `p`, converted to f32 lanes (AVX-512F).
+    ///
+    /// # Safety
+    /// `p` must point at sixteen readable consecutive voxels, and the CPU must support
+    /// AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn load16(p: *const Self) -> core::arch::x86_64::__m512;
     /// Four rows of two voxels, as two vectors of f32 lanes: `[*a, *(a+1), *b, *(b+1)]`
     /// and `[*c, *(c+1), *d, *(d+1)]` (SSE2).
     ///
@@ -80,6 +87,13 @@ impl Load for f32 {
             let v = _mm512_insertf32x4::<2>(v, _mm_loadu_ps(p[2]));
             _mm512_insertf32x4::<3>(v, _mm_loadu_ps(p[3]))
         }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load16(p: *const f32) -> core::arch::x86_64::__m512 {
+        // SAFETY: the caller guarantees 16 readable f32 at p.
+        unsafe { core::arch::x86_64::_mm512_loadu_ps(p) }
     }
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
@@ -148,6 +162,19 @@ impl Load for i16 {
             let q = p.map(|x| (x as *const i64).read_unaligned());
             let all = _mm256_set_epi64x(q[3], q[2], q[1], q[0]);
             _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(all))
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load16(p: *const i16) -> core::arch::x86_64::__m512 {
+        use core::arch::x86_64::*;
+        // SAFETY: the caller guarantees 16 readable i16 (32 bytes) at p, read unaligned;
+        // sign extension to 32 bits and conversion are exact.
+        unsafe {
+            _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(_mm256_loadu_si256(
+                p as *const __m256i,
+            )))
         }
     }
     #[cfg(target_arch = "x86_64")]
