@@ -662,7 +662,9 @@ unsafe fn sums4_avx512<
             (_, true) => _mm512_alignr_epi32::<13>(lo, hi),
         })
     };
-    // With RUN and `desc`: lanes in the opposite order.
+    // With RUN: the support of the lane whose voxels come first in memory (lane 15's
+    // with `desc`), and the permute that puts lanes back in order with `desc`.
+    let first = if desc { base[LANES - 1] } else { base[0] };
     let backwards = _mm512_set_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     // With SLICES: row j of every lane's slices 0..3, for every j, before the sums.
     let mut by_row = [[[_mm512_setzero_ps(); 4]; 2]; 4];
@@ -687,7 +689,6 @@ unsafe fn sums4_avx512<
                 ROWS => core::array::from_fn(|i| shift(&by_slice, j, i)),
                 SLICES => core::array::from_fn(|i| shift(&by_row[j], k, i)),
                 RUN => core::array::from_fn(|i| {
-                    let first = if desc { base[LANES - 1] } else { base[0] };
                     // SAFETY: lane l's support starts at base[0] + l (base[15] + 15 − l
                     // with `desc`: the caller's promise), so voxel m of these sixteen
                     // is lane m's (lane 15 − m's) voxel i of this row, in its checked
