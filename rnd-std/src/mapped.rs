@@ -132,31 +132,3 @@ pub(crate) unsafe fn samples<T: Plain>(m: &std::sync::Arc<Mapping>) -> Option<&'
     // a T (`Plain`), and the map stays while the caller uses the slice (its contract).
     Some(unsafe { std::slice::from_raw_parts(b.as_ptr() as *const T, b.len() / size) })
 }
-
-/// Asks the system to back the not yet touched memory of `buf`'s capacity with huge
-/// pages where it can (Linux transparent huge pages, `MADV_HUGEPAGE`): a large buffer
-/// about to be filled then costs a few hundred page faults instead of one per 4 KiB
-/// page (a 64 MiB copy: ~12 ms instead of ~31 ms to make and fill; bench/RESULTS.md
-/// run 55). Only advice: nothing changes where the system declines, or elsewhere.
-pub(crate) fn advise_huge<T>(buf: &mut Vec<T>) {
-    #[cfg(target_os = "linux")]
-    {
-        let spare = buf.spare_capacity_mut();
-        let (start, len) = (spare.as_mut_ptr() as usize, std::mem::size_of_val(spare));
-        let page = usize::try_from(page_size()).unwrap_or(4096);
-        // The whole pages inside the spare capacity: advice changes how the kernel backs
-        // a range, so it must not reach memory beyond the buffer's own.
-        let first = start.div_ceil(page).saturating_mul(page);
-        let end = (start.saturating_add(len)) / page * page;
-        if end > first {
-            // SAFETY: madvise with MADV_HUGEPAGE only changes how pages of the given
-            // range are backed, never their contents; the range is whole pages of
-            // memory this Vec owns (its spare capacity), and a refusal is harmless.
-            unsafe {
-                libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE);
-            }
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = buf;
-}

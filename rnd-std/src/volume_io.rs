@@ -196,8 +196,6 @@ fn pad_rows<V: Voxel>(vol: &Volume<'_, V>, threads: usize) -> Option<(Vec<V>, us
     }
     let mut out = Vec::new();
     out.try_reserve_exact(n).ok()?;
-    #[cfg(unix)]
-    crate::mapped::advise_huge(&mut out);
     let (src, sstride) = (vol.data(), vol.slice_stride());
     let per = s2.div_ceil(threads.clamp(1, s2));
     let dst = &mut out.spare_capacity_mut()[..n];
