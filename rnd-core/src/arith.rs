@@ -148,6 +148,20 @@ pub(crate) trait Arith {
         };
         true
     }
+    /// [`Arith::convolve_run_scalars`] of the `2N` consecutive samples from k, as two
+    /// runs (`out[0]` from k, `out[1]` from k + N), where the strategy sums two runs
+    /// together quicker than one after the other; false when not all are inside and
+    /// before the far plane, or it has no such path (then nothing was done).
+    #[inline(always)]
+    fn convolve_run_pair<const G: bool, const N: usize>(
+        &self,
+        _ray: &Self::Ray,
+        _k: u32,
+        _gm: bool,
+        _out: &mut [[f32; N]; 2],
+    ) -> bool {
+        false
+    }
     /// World-space gradient from an index-space one.
     fn grad_world(&self, gi: [f32; 3]) -> [f32; 3];
     /// Value, world gradient and world Hessian in f64 for a sample placed at (`n`, `f`)
@@ -515,6 +529,44 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
     #[inline(always)]
     fn run_sums<const G: bool>(&self, ray: &RefRay, k: u32) -> Option<[[f32; LANES]; 4]> {
         let p = self.place_lanes::<LANES>(ray, k);
+        let base = self.run_bases(&p)?;
+        let batch = LaneBatch {
+            vol: &self.vol,
+            base: &base,
+            al: &p.frac,
+            len: LANES,
+            value: self.value,
+        };
+        Some(crate::simd::lane_sums_soa::<V, K, S, G>(self.simd, batch))
+    }
+
+    /// [`Reference::run_sums`] of the runs from k and from k + [`LANES`], summed side by
+    /// side (None also where the vector level has no such path).
+    #[inline(always)]
+    fn run_pair_sums<const G: bool>(&self, ray: &RefRay, k: u32) -> Option<[[[f32; LANES]; 4]; 2]> {
+        if !self.simd.avx512() {
+            return None;
+        }
+        let (pa, pb) = (
+            self.place_lanes::<LANES>(ray, k),
+            self.place_lanes::<LANES>(ray, k + LANES as u32),
+        );
+        let (ba, bb) = (self.run_bases(&pa)?, self.run_bases(&pb)?);
+        let vol = &self.vol;
+        let batches = [(&ba, &pa), (&bb, &pb)].map(|(base, p)| LaneBatch {
+            vol,
+            base,
+            al: &p.frac,
+            len: LANES,
+            value: self.value,
+        });
+        crate::simd::lane_sums_pair::<V, K, S, G>(self.simd, batches)
+    }
+
+    /// The flat index of each lane's first support voxel in a run's placement, when
+    /// every sample is inside and before the far plane.
+    #[inline(always)]
+    fn run_bases(&self, p: &Lanes3<LANES>) -> Option<[usize; LANES]> {
         let mut all = 1;
         for l in 0..LANES {
             all &= p.inside[l] & (p.past[l] ^ 1);
@@ -538,14 +590,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         for (b, &x) in base.iter_mut().zip(&flat) {
             *b = index(x) as usize;
         }
-        let batch = LaneBatch {
-            vol: &self.vol,
-            base: &base,
-            al: &p.frac,
-            len: LANES,
-            value: self.value,
-        };
-        Some(crate::simd::lane_sums_soa::<V, K, S, G>(self.simd, batch))
+        Some(base)
     }
 
     /// [`gmag`]'s operations on index gradients given component by component (`g[c][l]`):
@@ -793,6 +838,33 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         } else {
             s[0]
         };
+        true
+    }
+    /// [`Reference::run_pair_sums`] reduced in lanes.
+    #[inline(always)]
+    fn convolve_run_pair<const G: bool, const N: usize>(
+        &self,
+        ray: &RefRay,
+        k: u32,
+        gm: bool,
+        out: &mut [[f32; N]; 2],
+    ) -> bool {
+        if N != LANES {
+            return false;
+        }
+        let Some(s) = self.run_pair_sums::<G>(ray, k) else {
+            return false;
+        };
+        for (o, s) in out.iter_mut().zip(&s) {
+            let Ok(o) = <&mut [f32; LANES]>::try_from(&mut o[..]) else {
+                return false;
+            };
+            *o = if gm && G {
+                self.world_gmags([&s[1], &s[2], &s[3]])
+            } else {
+                s[0]
+            };
+        }
         true
     }
     #[inline(always)]

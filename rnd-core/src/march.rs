@@ -599,6 +599,29 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                         continue;
                     }
                 }
+                // Two runs summed side by side where both need their sums: the next run
+                // too, unless the bounds already leave it unconvolved. (Summing a run
+                // that the first run's maximum would have left unconvolved changes no
+                // bit: its values are all below that maximum, or the floor.)
+                if k1 - k >= 2 * N as u32 {
+                    let next_under = match (below, &line) {
+                        (Some(g), Some(l)) => {
+                            let under = |b: f32| b < st.floor || st.acc.below_max(b);
+                            self.run_under(g, l, k + N as u32, k + 2 * N as u32 - 1, under)
+                        }
+                        _ => false,
+                    };
+                    let mut xs = [[0.0f32; N]; 2];
+                    if !next_under && self.a.convolve_run_pair::<G, N>(&ray, k, gm, &mut xs) {
+                        for (r, xs) in xs.iter().enumerate() {
+                            let k = k + (r * N) as u32;
+                            let ks = core::array::from_fn(|i| k + i as u32);
+                            self.blend_scalars::<N>(&mut st, &ks, xs);
+                        }
+                        k += 2 * N as u32;
+                        continue;
+                    }
+                }
                 let mut xs = [0.0f32; N];
                 if self
                     .a

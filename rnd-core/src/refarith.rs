@@ -789,6 +789,11 @@ mod lane_tests {
     fn check<V: Voxel, K: Kernel<S>, const S: usize>(data: &[V], sz: [usize; 3], simd: Simd) {
         let vol = Volume::new(data, sz, Affine4::IDENTITY).unwrap();
         let mut rng = Lcg(S as u64 * 77 + sz[0] as u64);
+        // Earlier batches with their sums, to be summed again in pairs: the last one, and
+        // the last line of each direction.
+        type Done<const S: usize> = (Lanes<S>, [[[f32; 4]; LANES]; 3]);
+        let mut last: Option<Done<S>> = None;
+        let mut last_line: [Option<Done<S>>; 2] = [None, None];
         for round in 0..200 {
             let mut lanes = Lanes::<S>::default();
             let mut pts = Vec::new();
@@ -864,6 +869,82 @@ mod lane_tests {
                 assert_eq!(bits(vg[l]), bits(want), "S={S} lane {l} at {p:?}");
                 assert_eq!(v[l][0].to_bits(), s.value.to_bits(), "S={S} value at {p:?}");
                 assert_eq!(bits(g[l])[1..], bits(want)[1..], "S={S} gradient at {p:?}");
+            }
+            // Two batches summed as a pair give each one's sums alone, bit for bit.
+            let done = (lanes, [v, vg, g]);
+            let other = if line.is_some() {
+                &mut last_line[usize::from(back)]
+            } else {
+                &mut last
+            };
+            for pair in [[&done, &done], [other.as_ref().unwrap_or(&done), &done]] {
+                check_pair::<V, K, S>(&vol, simd, pair);
+            }
+            *other = Some(done);
+        }
+    }
+
+    /// `lane_sums_pair` of two batches (where the level has it) is each batch's sums:
+    /// `sums` per batch, its value sums, its sums with the gradient, and the gradient's
+    /// alone (`LaneBatch::value` false).
+    fn check_pair<V: Voxel, K: Kernel<S>, const S: usize>(
+        vol: &Volume<'_, V>,
+        simd: Simd,
+        pair: [&(Lanes<S>, [[[f32; 4]; LANES]; 3]); 2],
+    ) {
+        fn batch<'b, V: Voxel, const S: usize>(
+            vol: &'b Volume<'b, V>,
+            lanes: &'b Lanes<S>,
+            value: bool,
+        ) -> LaneBatch<'b, V> {
+            LaneBatch {
+                vol,
+                base: &lanes.base,
+                al: &lanes.al,
+                len: lanes.len,
+                value,
+            }
+        }
+        let bits = |x: f32| x.to_bits();
+        let [a, b] = pair;
+        let pv = crate::simd::lane_sums_pair::<V, K, S, false>(
+            simd,
+            [batch(vol, &a.0, true), batch(vol, &b.0, true)],
+        );
+        let pg = crate::simd::lane_sums_pair::<V, K, S, true>(
+            simd,
+            [batch(vol, &a.0, true), batch(vol, &b.0, true)],
+        );
+        let po = crate::simd::lane_sums_pair::<V, K, S, true>(
+            simd,
+            [batch(vol, &a.0, false), batch(vol, &b.0, false)],
+        );
+        let (Some(pv), Some(pg), Some(po)) = (pv, pg, po) else {
+            // No pairs at this level.
+            assert!(!simd.avx512() || S != 4);
+            return;
+        };
+        for (h, (lanes, [v, vg, g])) in pair.into_iter().enumerate() {
+            for l in 0..lanes.len {
+                assert_eq!(
+                    bits(pv[h][0][l]),
+                    bits(v[l][0]),
+                    "S={S} pair value, lane {l}"
+                );
+                for c in 0..4 {
+                    assert_eq!(
+                        bits(pg[h][c][l]),
+                        bits(vg[l][c]),
+                        "S={S} pair sum {c}, lane {l}"
+                    );
+                }
+                for c in 1..4 {
+                    assert_eq!(
+                        bits(po[h][c][l]),
+                        bits(g[l][c]),
+                        "S={S} pair gradient {c}, lane {l}"
+                    );
+                }
             }
         }
     }

@@ -99,6 +99,23 @@ pub(crate) fn lane_sums_soa<V: Voxel, K: Kernel<S>, const S: usize, const G: boo
     })
 }
 
+/// [`lane_sums_soa`] of two batches at once where that is quicker (AVX-512F, support
+/// 4: their two chains of additions side by side); None where the level has no such
+/// path (then nothing was done). Each batch's sums are the same bits as alone.
+#[inline(always)]
+pub(crate) fn lane_sums_pair<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    simd: Simd,
+    batches: [LaneBatch<'_, V>; 2],
+) -> Option<[[[f32; LANES]; 4]; 2]> {
+    #[cfg(target_arch = "x86_64")]
+    if S == 4 && simd.avx512() {
+        // SAFETY: a `Simd` of level AVX-512 exists only where it is supported.
+        return Some(unsafe { with_avx512_pair::<V, K, S, G>(batches) });
+    }
+    let _ = (simd, batches);
+    None
+}
+
 /// Weights being filled: every element written before the array is read.
 type LaneWeightsUninit<const S: usize> = [[[MaybeUninit<f32>; LANES]; S]; 3];
 
@@ -175,6 +192,67 @@ pub(crate) fn store_lanes<const G: bool>(r: &[[f32; LANES]; 4], out: &mut [[f32;
     }
 }
 
+/// How lane l's support lies against lane 0's in `sup` (see `sums4_avx512`): one row
+/// (or one slice) after lane l − 1's, or before it (`desc`): a ray along the volume's
+/// second (third) axis, one voxel a step, whose rows (slices) are shared; one voxel
+/// after or before it (a ray along the first axis): each row of all lanes is one load;
+/// else none of these (0).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn placement<V: Voxel, const S: usize>(sup: &LaneSupports<'_, V, S>) -> (usize, bool) {
+    let b = &sup.base;
+    let up = |d: usize| (1..LANES).all(|l| b[l] == b[0] + l * d);
+    let down = |d: usize| (1..LANES).all(|l| b[l] + l * d == b[0]);
+    if up(sup.s0) {
+        (ROWS, false)
+    } else if down(sup.s0) {
+        (ROWS, true)
+    } else if up(sup.s01) {
+        (SLICES, false)
+    } else if down(sup.s01) {
+        (SLICES, true)
+    } else if up(1) {
+        (RUN, false)
+    } else if down(1) {
+        (RUN, true)
+    } else {
+        (0, false)
+    }
+}
+
+/// `sums4_avx512` of one batch placed as `placement` says, for a value (`value`) or
+/// not.
+///
+/// # Safety
+/// The CPU must support AVX-512F, and the batch's supports must be placed as `share`
+/// and `desc` say (`placement`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn sums4_placed<V: Voxel, const S: usize, const G: bool>(
+    value: bool,
+    (share, desc): (usize, bool),
+    sup: &LaneSupports<'_, V, S>,
+    w: &LaneWeights<S>,
+    dw: &LaneWeights<S>,
+) -> [[f32; LANES]; 4] {
+    let ([sup], [w], [dw]) = ([sup], [w], [dw]);
+    // SAFETY: AVX-512F is enabled here, and the supports are placed as `share` says (the
+    // caller's promise).
+    let [r] = unsafe {
+        match (value, share) {
+            (true, 0) => sums4_avx512::<V, S, G, true, 0, 1>([sup], [w], [dw], false),
+            (false, 0) => sums4_avx512::<V, S, G, false, 0, 1>([sup], [w], [dw], false),
+            (true, RUN) => sums4_avx512::<V, S, G, true, RUN, 1>([sup], [w], [dw], desc),
+            (false, RUN) => sums4_avx512::<V, S, G, false, RUN, 1>([sup], [w], [dw], desc),
+            (true, ROWS) => sums4_avx512::<V, S, G, true, ROWS, 1>([sup], [w], [dw], desc),
+            (false, ROWS) => sums4_avx512::<V, S, G, false, ROWS, 1>([sup], [w], [dw], desc),
+            (true, _) => sums4_avx512::<V, S, G, true, SLICES, 1>([sup], [w], [dw], desc),
+            (false, _) => sums4_avx512::<V, S, G, false, SLICES, 1>([sup], [w], [dw], desc),
+        }
+    };
+    r
+}
+
 /// [`lane_sums`] compiled for AVX-512F (support 4).
 ///
 /// # Safety
@@ -186,47 +264,53 @@ unsafe fn with_avx512<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
 ) -> [[f32; LANES]; 4] {
     let value = !G || batch.value;
     with_weights::<V, K, S, G, _>(batch, |sup, w, dw| {
-        // Lane l's support one row (or one slice) after lane l − 1's, or before it: a ray
-        // along the volume's second (third) axis, one voxel a step; those rows (slices)
-        // are shared. One voxel after or before it (a ray along the first axis): each
-        // row of all lanes is one load. See `sums4_avx512`.
-        let b = &sup.base;
-        let up = |d: usize| (1..LANES).all(|l| b[l] == b[0] + l * d);
-        let down = |d: usize| (1..LANES).all(|l| b[l] + l * d == b[0]);
-        let (share, desc) = if up(sup.s0) {
-            (ROWS, false)
-        } else if down(sup.s0) {
-            (ROWS, true)
-        } else if up(sup.s01) {
-            (SLICES, false)
-        } else if down(sup.s01) {
-            (SLICES, true)
-        } else if up(1) {
-            (RUN, false)
-        } else if down(1) {
-            (RUN, true)
-        } else {
-            (0, false)
-        };
-        match (value, share) {
-            // SAFETY: AVX-512F is enabled here.
-            (true, 0) => unsafe { sums4_avx512::<V, S, G, true, 0>(sup, w, dw, false) },
-            // SAFETY: AVX-512F is enabled here.
-            (false, 0) => unsafe { sums4_avx512::<V, S, G, false, 0>(sup, w, dw, false) },
-            // SAFETY: AVX-512F is enabled here, and lane l's support starts l voxels
-            // after lane 0's (before it, with `desc`).
-            (true, RUN) => unsafe { sums4_avx512::<V, S, G, true, RUN>(sup, w, dw, desc) },
-            // SAFETY: as above.
-            (false, RUN) => unsafe { sums4_avx512::<V, S, G, false, RUN>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here (the supports are a row apart).
-            (true, ROWS) => unsafe { sums4_avx512::<V, S, G, true, ROWS>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here (the supports are a row apart).
-            (false, ROWS) => unsafe { sums4_avx512::<V, S, G, false, ROWS>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here (the supports are a slice apart).
-            (true, _) => unsafe { sums4_avx512::<V, S, G, true, SLICES>(sup, w, dw, desc) },
-            // SAFETY: AVX-512F is enabled here (the supports are a slice apart).
-            (false, _) => unsafe { sums4_avx512::<V, S, G, false, SLICES>(sup, w, dw, desc) },
-        }
+        // SAFETY: AVX-512F is enabled here, and `placement` says how the supports lie.
+        unsafe { sums4_placed::<V, S, G>(value, placement(sup), sup, w, dw) }
+    })
+}
+
+/// [`lane_sums_pair`] compiled for AVX-512F (support 4): two batches of the same
+/// placement summed side by side, else one after the other.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn with_avx512_pair<V: Voxel, K: Kernel<S>, const S: usize, const G: bool>(
+    batches: [LaneBatch<'_, V>; 2],
+) -> [[[f32; LANES]; 4]; 2] {
+    let value = !G || batches[0].value;
+    with_weights::<V, K, S, G, _>(batches[0], |sa, wa, dwa| {
+        with_weights::<V, K, S, G, _>(batches[1], |sb, wb, dwb| {
+            let (pa, pb) = (placement(sa), placement(sb));
+            let (sups, ws, dws) = ([sa, sb], [wa, wb], [dwa, dwb]);
+            // (Batches a row or a slice apart are not paired: measured no quicker.)
+            match (pa == pb, value, pa) {
+                // SAFETY: AVX-512F is enabled here, and both batches lie as `pa` says.
+                (true, true, (0, _)) => unsafe {
+                    sums4_avx512::<V, S, G, true, 0, 2>(sups, ws, dws, false)
+                },
+                // SAFETY: as above.
+                (true, false, (0, _)) => unsafe {
+                    sums4_avx512::<V, S, G, false, 0, 2>(sups, ws, dws, false)
+                },
+                // SAFETY: as above.
+                (true, true, (RUN, desc)) => unsafe {
+                    sums4_avx512::<V, S, G, true, RUN, 2>(sups, ws, dws, desc)
+                },
+                // SAFETY: as above.
+                (true, false, (RUN, desc)) => unsafe {
+                    sums4_avx512::<V, S, G, false, RUN, 2>(sups, ws, dws, desc)
+                },
+                // SAFETY: as in `with_avx512`, batch by batch.
+                _ => unsafe {
+                    [
+                        sums4_placed::<V, S, G>(value, pa, sa, wa, dwa),
+                        sums4_placed::<V, S, G>(value, pb, sb, wb, dwb),
+                    ]
+                },
+            }
+        })
     })
 }
 
@@ -560,9 +644,13 @@ unsafe fn grad4_avx2<V: Voxel, const S: usize, const VAL: bool>(
 /// sup.base[0] + l s0` for every lane l (`sup.base[l] + l s0 = sup.base[0]` with
 /// `desc`), and with `SLICES` the same with `s01`.
 ///
+/// With `B` = 2 two batches are summed side by side, each exactly as alone (the same
+/// placement kind, `SHARE` and `desc`, for both): two independent chains of additions,
+/// where one batch's single chain per lane (S³ dependent additions) would bind.
+///
 /// # Safety
 /// The CPU must support AVX-512F, and with `RUN` `sup.base[l] = sup.base[0] + l` for
-/// every lane l (`sup.base[l] + l = sup.base[0]` with `desc`).
+/// every lane l (`sup.base[l] + l = sup.base[0]` with `desc`) of every batch.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn sums4_avx512<
@@ -571,21 +659,15 @@ unsafe fn sums4_avx512<
     const G: bool,
     const VAL: bool,
     const SHARE: usize,
+    const B: usize,
 >(
-    sup: &LaneSupports<'_, V, S>,
-    w: &LaneWeights<S>,
-    dw: &LaneWeights<S>,
+    sups: [&LaneSupports<'_, V, S>; B],
+    ws: [&LaneWeights<S>; B],
+    dws: [&LaneWeights<S>; B],
     desc: bool,
-) -> [[f32; LANES]; 4] {
+) -> [[[f32; LANES]; 4]; B] {
     use core::arch::x86_64::*;
     assert!(S == 4 && LANES == 16);
-    let LaneSupports {
-        data,
-        base,
-        s0,
-        s01,
-    } = *sup;
-    let ptr = data.as_ptr();
     let ld = |v: &[f32; LANES]| {
         // SAFETY: sixteen readable floats.
         unsafe { _mm512_loadu_ps(v.as_ptr()) }
@@ -610,8 +692,9 @@ unsafe fn sums4_avx512<
         ]
     };
     // Element i of every lane's row `o` voxels from its support's first (`o` a row of the
-    // support: j s0 + k s01, j, k < 4).
-    let lanes_at = |o: usize| {
+    // support: j s0 + k s01, j, k < 4), in batch `b`.
+    let lanes_at = |b: usize, o: usize| {
+        let (ptr, base) = (sups[b].data.as_ptr(), &sups[b].base);
         // SAFETY: base[l] + o .. + 3 lies in the support of lane l (checked in
         // `Supports::new`; S is 4).
         let row = |l: usize| unsafe {
@@ -629,8 +712,9 @@ unsafe fn sums4_avx512<
     // of rows, or the row of slices). Each lane's row 0 is put into lanes, and the three
     // past the last lane's (lane 15's rows 1–3, or with `desc` lane 0's); row t of lane l
     // is row 0 of lane l + t (l − t), so row t of all lanes is those shifted by t lanes.
-    let spread = |off: usize, stride: usize| -> [[__m512; 4]; 2] {
-        let lo = lanes_at(off);
+    let spread = |b: usize, off: usize, stride: usize| -> [[__m512; 4]; 2] {
+        let lo = lanes_at(b, off);
+        let (ptr, base) = (sups[b].data.as_ptr(), &sups[b].base);
         // SAFETY: base[l] + off + r stride (r < 4, off within a support: the caller's
         // j s0 or k s01) lies in lane l's support, and its four voxels (S is 4; checked
         // in `Supports::new`).
@@ -664,63 +748,90 @@ unsafe fn sums4_avx512<
     };
     // With RUN: the support of the lane whose voxels come first in memory (lane 15's
     // with `desc`), and the permute that puts lanes back in order with `desc`.
-    let first = if desc { base[LANES - 1] } else { base[0] };
+    let first = sups.map(|sup| {
+        if desc {
+            sup.base[LANES - 1]
+        } else {
+            sup.base[0]
+        }
+    });
     let backwards = _mm512_set_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    let (s0, s01) = (sups[0].s0, sups[0].s01);
     // With SLICES: row j of every lane's slices 0..3, for every j, before the sums.
-    let mut by_row = [[[_mm512_setzero_ps(); 4]; 2]; 4];
+    let zero = _mm512_setzero_ps();
+    let mut by_row = [[[[zero; 4]; 2]; 4]; B];
     if SHARE == SLICES {
-        for (j, r) in by_row.iter_mut().enumerate() {
-            *r = spread(j * s0, s01);
+        for (b, rows) in by_row.iter_mut().enumerate() {
+            for (j, r) in rows.iter_mut().enumerate() {
+                *r = spread(b, j * s0, s01);
+            }
         }
     }
-    let mut val = _mm512_setzero_ps();
-    let (mut g0, mut g1, mut g2) = (val, val, val);
+    let (mut val, mut g0, mut g1, mut g2) = ([zero; B], [zero; B], [zero; B], [zero; B]);
     for k in 0..S {
-        let (w2, d2) = (ld(&w[2][k]), ld(&dw[2][k]));
+        let (mut w2, mut d2) = ([zero; B], [zero; B]);
+        for b in 0..B {
+            (w2[b], d2[b]) = (ld(&ws[b][2][k]), ld(&dws[b][2][k]));
+        }
         // With ROWS: rows 0..3 of every lane's slice k.
-        let by_slice = if SHARE == ROWS {
-            spread(k * s01, s0)
-        } else {
-            [[_mm512_setzero_ps(); 4]; 2]
-        };
+        let mut by_slice = [[[zero; 4]; 2]; B];
+        if SHARE == ROWS {
+            for (b, r) in by_slice.iter_mut().enumerate() {
+                *r = spread(b, k * s01, s0);
+            }
+        }
         for j in 0..S {
-            let (w1, d1) = (ld(&w[1][j]), ld(&dw[1][j]));
-            let x: [__m512; 4] = match SHARE {
-                ROWS => core::array::from_fn(|i| shift(&by_slice, j, i)),
-                SLICES => core::array::from_fn(|i| shift(&by_row[j], k, i)),
-                RUN => core::array::from_fn(|i| {
-                    // SAFETY: lane l's support starts at base[0] + l (base[15] + 15 − l
-                    // with `desc`: the caller's promise), so voxel m of these sixteen
-                    // is lane m's (lane 15 − m's) voxel i of this row, in its checked
-                    // support.
-                    let x = unsafe { V::load16(ptr.add(first + j * s0 + k * s01 + i)) };
-                    if desc {
-                        _mm512_permutexvar_ps(backwards, x)
-                    } else {
-                        x
+            let (mut w1, mut d1) = ([zero; B], [zero; B]);
+            for b in 0..B {
+                (w1[b], d1[b]) = (ld(&ws[b][1][j]), ld(&dws[b][1][j]));
+            }
+            let mut x = [[zero; 4]; B];
+            for (b, x) in x.iter_mut().enumerate() {
+                *x = match SHARE {
+                    ROWS => core::array::from_fn(|i| shift(&by_slice[b], j, i)),
+                    SLICES => core::array::from_fn(|i| shift(&by_row[b][j], k, i)),
+                    RUN => core::array::from_fn(|i| {
+                        // SAFETY: lane l's support starts at base[0] + l (base[15] + 15 −
+                        // l with `desc`: the caller's promise), so voxel m of these
+                        // sixteen is lane m's (lane 15 − m's) voxel i of this row, in its
+                        // checked support.
+                        let x = unsafe {
+                            V::load16(sups[b].data.as_ptr().add(first[b] + j * s0 + k * s01 + i))
+                        };
+                        if desc {
+                            _mm512_permutexvar_ps(backwards, x)
+                        } else {
+                            x
+                        }
+                    }),
+                    _ => lanes_at(b, j * s0 + k * s01),
+                };
+            }
+            for i in 0..S {
+                for b in 0..B {
+                    let (w1, w2, d1, d2) = (w1[b], w2[b], d1[b], d2[b]);
+                    let xi = x[b][i];
+                    let xw0 = _mm512_mul_ps(xi, ld(&ws[b][0][i]));
+                    let xw0w1 = _mm512_mul_ps(xw0, w1);
+                    if VAL || !G {
+                        val[b] = _mm512_add_ps(val[b], _mm512_mul_ps(xw0w1, w2));
                     }
-                }),
-                _ => lanes_at(j * s0 + k * s01),
-            };
-            for (i, &xi) in x.iter().enumerate() {
-                let xw0 = _mm512_mul_ps(xi, ld(&w[0][i]));
-                let xw0w1 = _mm512_mul_ps(xw0, w1);
-                if VAL || !G {
-                    val = _mm512_add_ps(val, _mm512_mul_ps(xw0w1, w2));
-                }
-                if G {
-                    let xd0 = _mm512_mul_ps(xi, ld(&dw[0][i]));
-                    g0 = _mm512_add_ps(g0, _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
-                    g1 = _mm512_add_ps(g1, _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
-                    g2 = _mm512_add_ps(g2, _mm512_mul_ps(xw0w1, d2));
+                    if G {
+                        let xd0 = _mm512_mul_ps(xi, ld(&dws[b][0][i]));
+                        g0[b] = _mm512_add_ps(g0[b], _mm512_mul_ps(_mm512_mul_ps(xd0, w1), w2));
+                        g1[b] = _mm512_add_ps(g1[b], _mm512_mul_ps(_mm512_mul_ps(xw0, d1), w2));
+                        g2[b] = _mm512_add_ps(g2[b], _mm512_mul_ps(xw0w1, d2));
+                    }
                 }
             }
         }
     }
-    let mut r = [[0.0f32; LANES]; 4];
-    for (dst, v) in r.iter_mut().zip([val, g0, g1, g2]) {
-        // SAFETY: sixteen writable floats.
-        unsafe { _mm512_storeu_ps(dst.as_mut_ptr(), v) };
+    let mut r = [[[0.0f32; LANES]; 4]; B];
+    for (b, r) in r.iter_mut().enumerate() {
+        for (dst, v) in r.iter_mut().zip([val[b], g0[b], g1[b], g2[b]]) {
+            // SAFETY: sixteen writable floats.
+            unsafe { _mm512_storeu_ps(dst.as_mut_ptr(), v) };
+        }
     }
     r
 }

@@ -156,7 +156,7 @@ mod load;
 pub(crate) mod sse;
 
 pub use lanes::LANES;
-pub(crate) use lanes::{lane_sums, lane_sums_soa, store_lanes, LaneBatch};
+pub(crate) use lanes::{lane_sums, lane_sums_pair, lane_sums_soa, store_lanes, LaneBatch};
 pub(crate) use load::Load;
 
 /// `y` truncated toward zero, for |y| < 2^63 (outside that, some wrong but defined
