@@ -593,6 +593,17 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
         Some(base)
     }
 
+    /// A run's lane-major sums reduced to the one-channel probe: the values, or with `gm`
+    /// (and `G`) the world gradient magnitudes.
+    #[inline(always)]
+    fn run_scalars<const G: bool>(&self, s: &[[f32; LANES]; 4], gm: bool) -> [f32; LANES] {
+        if gm && G {
+            self.world_gmags([&s[1], &s[2], &s[3]])
+        } else {
+            s[0]
+        }
+    }
+
     /// [`gmag`]'s operations on index gradients given component by component (`g[c][l]`):
     /// the squared world lengths of all lanes first (side by side), then their square
     /// roots (one vector instruction per eight at AVX2; correctly rounded either way,
@@ -833,11 +844,7 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let Some(s) = self.run_sums::<G>(ray, k) else {
             return false;
         };
-        *out = if gm && G {
-            self.world_gmags([&s[1], &s[2], &s[3]])
-        } else {
-            s[0]
-        };
+        *out = self.run_scalars::<G>(&s, gm);
         true
     }
     /// [`Reference::run_pair_sums`] reduced in lanes.
@@ -856,14 +863,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
             return false;
         };
         for (o, s) in out.iter_mut().zip(&s) {
-            let Ok(o) = <&mut [f32; LANES]>::try_from(&mut o[..]) else {
-                return false;
-            };
-            *o = if gm && G {
-                self.world_gmags([&s[1], &s[2], &s[3]])
-            } else {
-                s[0]
-            };
+            // (N is LANES: every lane is written.)
+            for (o, x) in o.iter_mut().zip(self.run_scalars::<G>(s, gm)) {
+                *o = x;
+            }
         }
         true
     }
