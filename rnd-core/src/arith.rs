@@ -541,10 +541,11 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
     }
 
     /// [`Reference::run_sums`] of the runs from k and from k + [`LANES`], summed side by
-    /// side (None also where the vector level has no such path).
+    /// side (None also where the vector level or the kernel has no such path: AVX-512,
+    /// support 4).
     #[inline(always)]
     fn run_pair_sums<const G: bool>(&self, ray: &RefRay, k: u32) -> Option<[[[f32; LANES]; 4]; 2]> {
-        if !self.simd.avx512() {
+        if !(S == 4 && self.simd.avx512()) {
             return None;
         }
         let (pa, pb) = (
