@@ -148,6 +148,12 @@ pub(crate) trait Arith {
         };
         true
     }
+    /// Whether [`Arith::convolve_run_pair`] can sum two runs together here (the loop
+    /// asks nothing of the second run otherwise).
+    #[inline(always)]
+    fn pairs_runs(&self) -> bool {
+        false
+    }
     /// [`Arith::convolve_run_scalars`] of the `2N` consecutive samples from k, as two
     /// runs (`out[0]` from k, `out[1]` from k + N), where the strategy sums two runs
     /// together quicker than one after the other; false when not all are inside and
@@ -545,7 +551,7 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
     /// support 4).
     #[inline(always)]
     fn run_pair_sums<const G: bool>(&self, ray: &RefRay, k: u32) -> Option<[[[f32; LANES]; 4]; 2]> {
-        if !(S == 4 && self.simd.avx512()) {
+        if !self.pairs_runs() {
             return None;
         }
         let (pa, pb) = (
@@ -847,6 +853,10 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         };
         *out = self.run_scalars::<G>(&s, gm);
         true
+    }
+    #[inline(always)]
+    fn pairs_runs(&self) -> bool {
+        S == 4 && self.simd.avx512()
     }
     /// [`Reference::run_pair_sums`] reduced in lanes.
     #[inline(always)]

@@ -603,7 +603,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 // too, unless the bounds already leave it unconvolved. (Summing a run
                 // that the first run's maximum would have left unconvolved changes no
                 // bit: its values are all below that maximum, or the floor.)
-                if k1 - k >= 2 * N as u32 {
+                if k1 - k >= 2 * N as u32 && self.a.pairs_runs() {
                     let next_under = match (below, &line) {
                         (Some(g), Some(l)) => {
                             let under = |b: f32| b < st.floor || st.acc.below_max(b);
