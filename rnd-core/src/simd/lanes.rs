@@ -235,7 +235,6 @@ unsafe fn sums4_placed<V: Voxel, const S: usize, const G: bool>(
     w: &LaneWeights<S>,
     dw: &LaneWeights<S>,
 ) -> [[f32; LANES]; 4] {
-    let ([sup], [w], [dw]) = ([sup], [w], [dw]);
     // SAFETY: AVX-512F is enabled here, and the supports are placed as `share` says (the
     // caller's promise).
     let [r] = unsafe {
