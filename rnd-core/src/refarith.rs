@@ -884,9 +884,9 @@ mod lane_tests {
         }
     }
 
-    /// `lane_sums_pair` of two batches (where the level has it) is each batch's sums:
-    /// `sums` per batch, its value sums, its sums with the gradient, and the gradient's
-    /// alone (`LaneBatch::value` false).
+    /// `lane_sums_pair` of two batches (where the level has it: AVX-512, support 4) gives
+    /// each batch's own sums (`pair[h].1`: its value sums, its sums with the gradient,
+    /// and its gradient's alone, `LaneBatch::value` false), bit for bit.
     fn check_pair<V: Voxel, K: Kernel<S>, const S: usize>(
         vol: &Volume<'_, V>,
         simd: Simd,
