@@ -128,6 +128,15 @@ struct State<'t> {
     win: (u32, u32),
 }
 
+impl State<'_> {
+    /// Under `max` with bounds: whether a bound `b` leaves its samples unconvolved (below
+    /// the floor, or by the running maximum).
+    #[inline(always)]
+    fn under(&self, b: f32) -> bool {
+        b < self.floor || self.acc.below_max(b)
+    }
+}
+
 /// A ray's index-space line for jumps over boxes: `s` counts support starts (plus the
 /// kernel's first offset and, for odd supports, one half), `rd` is 1/`d`, and `e` bounds
 /// how far a sample's count lies from `s + k d`; `h` is `s` counted from the first
@@ -592,8 +601,7 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 // unconvolved.
                 if let (Some(g), Some(l)) = (below, &line) {
                     let j = k + N as u32 - 1;
-                    let under = |b: f32| b < st.floor || st.acc.below_max(b);
-                    if self.run_under(g, l, k, j, under) && !self.a.past(&ray, j) {
+                    if self.run_under(g, l, k, j, |b| st.under(b)) && !self.a.past(&ray, j) {
                         st.unseen += N as u32;
                         k += N as u32;
                         continue;
@@ -606,8 +614,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                 if k1 - k >= 2 * N as u32 && self.a.pairs_runs() {
                     let next_under = match (below, &line) {
                         (Some(g), Some(l)) => {
-                            let under = |b: f32| b < st.floor || st.acc.below_max(b);
-                            self.run_under(g, l, k + N as u32, k + 2 * N as u32 - 1, under)
+                            let (k, j) = (k + N as u32, k + 2 * N as u32 - 1);
+                            self.run_under(g, l, k, j, |b| st.under(b))
                         }
                         _ => false,
                     };
@@ -692,9 +700,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     // the running maximum (which only grows while a batch waits), is
                     // counted unconvolved, and with its coarse block's bound, every
                     // sample up to the box's end.
-                    let under = |b: f32| b < st.floor || st.acc.below_max(b);
-                    if under(g.bound_at(n)) {
-                        if let (Some(l), true) = (line, under(g.coarse_bound_at(n))) {
+                    if st.under(g.bound_at(n)) {
+                        if let (Some(l), true) = (line, st.under(g.coarse_bound_at(n))) {
                             let j = self.box_run_end(&l, SkipGrid::coarse_box(n), kk, k1);
                             if j > kk + 1 && !self.a.past(&ray, j) {
                                 st.unseen += j - kk + 1;
