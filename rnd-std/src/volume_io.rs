@@ -141,6 +141,37 @@ pub fn padding_pays(sizes: [usize; 3], bytes: usize, support: usize) -> bool {
     support >= 3 && (sizes[0].saturating_mul(bytes)).is_multiple_of(512) && total >= PAD_MIN_BYTES
 }
 
+/// Whether renders of a [`VolumeBuf`] use a copy with padded rows
+/// ([`VolumeBuf::set_padding`]); either way they give the same image bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Padding {
+    /// Where [`padding_pays`] for the volume and the kernel, on a processor where the
+    /// copy was measured to pay ([`padding_helps_here`]).
+    #[default]
+    Auto,
+    /// Where [`padding_pays`] for the volume and the kernel, on any processor.
+    Always,
+    /// Never: renders read the volume as it is.
+    Never,
+}
+
+/// Whether this processor is one on which [`Padding::Auto`] pads: an x86-64 processor
+/// from AMD. Measured (bench/RESULTS.md): on an AMD Zen 5 the copy takes a quarter
+/// (value) and a sixth (gradient magnitude) off a 256³ float volume's bspln3 MIPs and
+/// pays for itself in one frame (run 46); on an Intel Xeon with AVX-512 it takes at most
+/// 5% off later frames (none on an oblique view), while making it costs a first frame
+/// more than that (7–35% of a whole `go`, its fresh memory; runs 51, 53, 56).
+pub fn padding_helps_here() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let v = std::arch::x86_64::__cpuid(0);
+        // "AuthenticAMD" in ebx, edx, ecx.
+        (v.ebx, v.edx, v.ecx) == (0x6874_7541, 0x6974_6e65, 0x444d_4163)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
 /// A padded copy of a volume's samples: its rows `row` samples apart.
 #[derive(Debug)]
 enum Padded {
@@ -151,25 +182,16 @@ enum Padded {
 /// The padded copy a [`VolumeBuf`] keeps for its renders: made at the first render it
 /// pays for (or never, when padding is off or memory is short). A copy of the volume
 /// starts without one; two volumes compare equal whatever they keep.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 struct KeptPadded {
-    on: bool,
+    mode: Padding,
     copy: OnceLock<Option<Padded>>,
-}
-
-impl Default for KeptPadded {
-    fn default() -> Self {
-        KeptPadded {
-            on: true,
-            copy: OnceLock::new(),
-        }
-    }
 }
 
 impl Clone for KeptPadded {
     fn clone(&self) -> Self {
         KeptPadded {
-            on: self.on,
+            mode: self.mode,
             copy: OnceLock::new(),
         }
     }
@@ -254,9 +276,9 @@ impl VolumeBuf {
     }
 
     /// A view to render with `kernel`: the same samples, from a copy with padded rows
-    /// ([`Volume::padded`]) when [`padding_pays`] (made on `threads` threads at the first
-    /// such call and kept for the next; not when [`VolumeBuf::set_padding`] turned it
-    /// off or memory is short). Either view renders the same bits.
+    /// ([`Volume::padded`]) when [`VolumeBuf::pads`] (made on `threads` threads at the
+    /// first such call and kept for the next; not when memory is short). Either view
+    /// renders the same bits.
     pub fn render_view(&self, kernel: KernelName, threads: usize) -> AnyVolume<'_> {
         let view = self.view();
         if !self.pads(kernel) {
@@ -276,13 +298,18 @@ impl VolumeBuf {
     }
 
     /// Whether [`VolumeBuf::render_view`] renders with `kernel` from a padded copy
-    /// (padding on, and [`padding_pays`]).
+    /// ([`padding_pays`], and [`VolumeBuf::set_padding`]'s [`Padding`] says so here).
     pub fn pads(&self, kernel: KernelName) -> bool {
         let bytes = match self.view() {
             AnyVolume::F32(_) => 4,
             AnyVolume::I16(_) => 2,
         };
-        self.padded.on && padding_pays(self.sizes(), bytes, kernel.support())
+        let here = match self.padded.mode {
+            Padding::Never => return false,
+            Padding::Always => true,
+            Padding::Auto => padding_helps_here(),
+        };
+        here && padding_pays(self.sizes(), bytes, kernel.support())
     }
 
     /// Whether a padded copy has been made.
@@ -291,11 +318,11 @@ impl VolumeBuf {
         matches!(self.padded.copy.get(), Some(Some(_)))
     }
 
-    /// Whether renders may use a copy with padded rows ([`VolumeBuf::render_view`];
-    /// on by default). Off drops a copy already made.
-    pub fn set_padding(&mut self, on: bool) {
+    /// When renders use a copy with padded rows ([`VolumeBuf::render_view`];
+    /// [`Padding::Auto`] by default). Drops a copy already made.
+    pub fn set_padding(&mut self, mode: Padding) {
         self.padded = KeptPadded {
-            on,
+            mode,
             copy: OnceLock::new(),
         };
     }

@@ -195,8 +195,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            file while it renders, or set RENDR_MMAP=0 to read it into memory instead. \
            A volume of 16 MiB or more whose rows are a multiple of 512 bytes long, \
            rendered with a kernel of support 3 or more and no skip grid, is rendered \
-           from a copy with padded rows (the same image; such rows share the cache's \
-           sets); RENDR_PAD=0 renders it as it is.",
+           from a copy with padded rows on AMD processors (the same image; such rows \
+           share the cache's sets; on the Intel processors measured the copy costs more \
+           than it saves); RENDR_PAD=0 renders it as it is, RENDR_PAD=1 pads on any.",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
@@ -511,16 +512,21 @@ impl VolumeCache {
 /// The volume in `path` for rendering (go, turn, view): raw NRRD samples used in place
 /// from a map of the file where they can be (`load_volume_mapped`), unless the
 /// environment says `RENDR_MMAP=0` (then every file is read into memory); rendered from
-/// a copy with padded rows where that pays (`VolumeBuf::render_view`), unless it says
-/// `RENDR_PAD=0`.
+/// a copy with padded rows where that pays (`VolumeBuf::render_view`, `Padding::Auto`),
+/// unless it says `RENDR_PAD=0` (never) or `RENDR_PAD=1` (on any processor).
 pub fn load_volume(path: &Path, threads: usize) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
+    use rnd_std::volume_io::Padding;
     let env_off = |name: &str| std::env::var_os(name).is_some_and(|v| v == "0");
     let mut vol = if env_off("RENDR_MMAP") {
         rnd_std::volume_io::load_volume_threads(path, threads)?
     } else {
         rnd_std::volume_io::load_volume_mapped(path, threads)?
     };
-    vol.set_padding(!env_off("RENDR_PAD"));
+    vol.set_padding(match std::env::var_os("RENDR_PAD") {
+        Some(v) if v == "0" => Padding::Never,
+        Some(v) if v == "1" => Padding::Always,
+        _ => Padding::Auto,
+    });
     Ok(vol)
 }
 
