@@ -160,7 +160,7 @@ pub enum Padding {
 /// (value) and a sixth (gradient magnitude) off a 256³ float volume's bspln3 MIPs and
 /// pays for itself in one frame (run 46); on an Intel Xeon with AVX-512 it takes at most
 /// 5% off later frames (none on an oblique view), while making it costs a first frame
-/// more than that (7–35% of a whole `go`, its fresh memory; runs 51, 53, 56).
+/// more than that (7–26% of a whole `go`, its fresh memory; runs 53, 56).
 pub fn padding_helps_here() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
