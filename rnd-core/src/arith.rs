@@ -660,32 +660,20 @@ impl<'r, 'v, V: Voxel, K: Kernel<S>, const S: usize> Reference<'r, 'v, V, K, S> 
             // (Plain loops: `array::from_fn` may stay out of line, compiled without the
             // vector level.)
             let mut x = [0.0f32; N];
-            let mut base = [0.0f32; N];
             for l in 0..N {
                 x[l] = m[a][0] * pw[0][l] + m[a][1] * pw[1][l] + m[a][2] * pw[2][l] + t[a];
-                base[l] = if S.is_multiple_of(2) {
-                    x[l]
-                } else {
-                    x[l] + 0.5
-                };
             }
-            crate::simd::floor_lanes(self.simd, &mut base);
-            // (Into arrays of this axis first, stored whole after: written straight
-            // into `out`, the loop vectorized lane by lane with shuffles, ~2.5 times
-            // the instructions.)
-            let (mut first, mut frac, mut inside) = ([0.0f32; N], [0.0f32; N], [0u32; N]);
-            for l in 0..N {
-                // (base + (LO − origin) in one add: the same value as the two adds
-                // (base + LO) − origin wherever the support can be inside, |base| < 2^24.)
-                first[l] = base[l] + lo_off;
-                frac[l] = x[l] - base[l];
-                inside[l] = u32::from((first[l] >= 0.0) & (first[l] + (S as f32 - 1.0) <= top));
-            }
-            out.first[a] = first;
-            out.frac[a] = frac;
-            for l in 0..N {
-                out.inside[l] &= inside[l];
-            }
+            // (base + (LO − origin) in one add: the same value as the two adds
+            // (base + LO) − origin wherever the support can be inside, |base| < 2^24.)
+            crate::simd::place_axis_lanes(
+                self.simd,
+                &x,
+                !S.is_multiple_of(2),
+                (lo_off, S as f32 - 1.0, top),
+                &mut out.first[a],
+                &mut out.frac[a],
+                &mut out.inside,
+            );
         }
         for l in 0..N {
             out.past[l] = u32::from(-pv[2][l] > cam.fcv);

@@ -212,6 +212,63 @@ pub(crate) fn floor_lanes<const N: usize>(simd: Simd, x: &mut [f32; N]) {
     }
 }
 
+/// One axis of the reference's placement of `N` lanes (`refarith::place`, lane by lane):
+/// with base = ⌊x⌋ (⌊x + 0.5⌋ with `half`, odd supports), `first` = base + `lo_off`,
+/// `frac` = x − base, and `inside` left 1 only where first ≥ 0 and first + `last` ≤ `top`
+/// (a NaN lane is outside). At AVX2 and above eight lanes an instruction (the same
+/// operations, so the same bits; the portable loop compiled into a tangle of shuffles
+/// there), else the portable loop.
+#[inline(always)]
+pub(crate) fn place_axis_lanes<const N: usize>(
+    simd: Simd,
+    x: &[f32; N],
+    half: bool,
+    (lo_off, last, top): (f32, f32, f32),
+    first: &mut [f32; N],
+    frac: &mut [f32; N],
+    inside: &mut [u32; N],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd.avx2() && N.is_multiple_of(8) {
+        use core::arch::x86_64::*;
+        const DOWN: i32 = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+        for c in 0..N / 8 {
+            // SAFETY: a `Simd` of level AVX2 or above exists only where AVX2 is
+            // supported; lanes 8 c .. 8 c + 8 lie inside each array (N is a multiple of
+            // 8), for the unaligned loads and stores.
+            unsafe {
+                let xv = _mm256_loadu_ps(x.as_ptr().add(8 * c));
+                let y = if half {
+                    _mm256_add_ps(xv, _mm256_set1_ps(0.5))
+                } else {
+                    xv
+                };
+                let b = _mm256_round_ps::<DOWN>(y);
+                let f = _mm256_add_ps(b, _mm256_set1_ps(lo_off));
+                let ge = _mm256_cmp_ps::<_CMP_GE_OQ>(f, _mm256_setzero_ps());
+                let end = _mm256_add_ps(f, _mm256_set1_ps(last));
+                let le = _mm256_cmp_ps::<_CMP_LE_OQ>(end, _mm256_set1_ps(top));
+                let ok = _mm256_srli_epi32::<31>(_mm256_castps_si256(_mm256_and_ps(ge, le)));
+                let at = inside.as_mut_ptr().add(8 * c) as *mut __m256i;
+                _mm256_storeu_si256(at, _mm256_and_si256(_mm256_loadu_si256(at), ok));
+                _mm256_storeu_ps(first.as_mut_ptr().add(8 * c), f);
+                _mm256_storeu_ps(frac.as_mut_ptr().add(8 * c), _mm256_sub_ps(xv, b));
+            }
+        }
+        return;
+    }
+    let mut base = [0.0f32; N];
+    for l in 0..N {
+        base[l] = if half { x[l] + 0.5 } else { x[l] };
+    }
+    floor_lanes(simd, &mut base);
+    for l in 0..N {
+        first[l] = base[l] + lo_off;
+        frac[l] = x[l] - base[l];
+        inside[l] &= u32::from((first[l] >= 0.0) & (first[l] + last <= top));
+    }
+}
+
 /// [`crate::math::sqrtf`] of every lane of `x`, the same bits (IEEE square roots are
 /// correctly rounded): at AVX2 and above one instruction per eight lanes, else the
 /// portable function lane by lane.
