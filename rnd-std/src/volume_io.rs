@@ -164,7 +164,10 @@ pub enum Padding {
 pub fn padding_helps_here() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        let v = std::arch::x86_64::__cpuid(0);
+        // (`unsafe` for the toolchains before `__cpuid` became safe.)
+        #[allow(unused_unsafe)]
+        // SAFETY: CPUID exists on every x86_64 processor; leaf 0 always.
+        let v = unsafe { std::arch::x86_64::__cpuid(0) };
         // "AuthenticAMD" in ebx, edx, ecx.
         (v.ebx, v.edx, v.ecx) == (0x6874_7541, 0x6974_6e65, 0x444d_4163)
     }
