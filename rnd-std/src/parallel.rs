@@ -141,7 +141,8 @@ pub fn render_with(
 /// voxels, never on the camera, and is aimed at each frame's camera anew), so the
 /// frames after the first of a turntable or a viewer skip that work. A large volume
 /// whose rows alias in the cache renders without a skip grid (none applies, or the
-/// `max` grid's pilot says it would not pay) from a padded copy it also keeps
+/// `max` grid's pilot says it would not pay) from a padded copy it also keeps, where the
+/// volume's [`crate::volume_io::Padding`] allows it
 /// ([`crate::volume_io::VolumeBuf::render_view`]). The same image bits as
 /// [`render_with`] (the same grid, the same samples); frames of the same volume may
 /// render at once, each then building its own grid when another holds the kept one.

@@ -118,8 +118,9 @@ pub const ROW_PAD_BYTES: usize = 64;
 /// measured no quicker padded).
 pub const PAD_MIN_BYTES: usize = 16 << 20;
 
-/// Whether [`VolumeBuf::render_view`] renders `sizes` samples of `bytes` bytes each with
-/// a kernel of support `support` from a copy with padded rows: a volume of at least
+/// Whether a volume of `sizes` samples of `bytes` bytes each, rendered with a kernel of
+/// support `support`, is one that [`VolumeBuf::render_view`] renders from a copy with
+/// padded rows where [`Padding`] allows it ([`VolumeBuf::pads`]): a volume of at least
 /// [`PAD_MIN_BYTES`] whose rows are a multiple of 512 bytes long (a 256-sample float or
 /// 512-sample short row: every few rows fall into the same cache sets, so a ray's
 /// supports evict each other), rendered with a kernel of support 3 or more (box and
