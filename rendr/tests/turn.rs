@@ -213,3 +213,75 @@ fn bad_input_fails_before_writing() {
     assert!(left.is_empty(), "left behind: {left:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A turn of several frames holds the volume's samples in memory (its frames render
+/// quicker from pages the system can make large); one frame uses a raw NRRD in place
+/// from a map of the file, as `go` does. `RENDR_MMAP=0` and `=1` choose either way, and
+/// the frames are the same bytes whichever holds the samples.
+#[test]
+fn many_frames_hold_the_samples_in_memory() {
+    let dir = rnd_tests::tmpdir("turn-hold");
+    // A raw float NRRD in this machine's byte order whose samples start at a multiple of
+    // four bytes: one that can be mapped.
+    let endian = if cfg!(target_endian = "little") {
+        "little"
+    } else {
+        "big"
+    };
+    let mut head = format!(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 8 8 8\nendian: {endian}\nencoding: raw\n"
+    );
+    // A comment line of the length that brings the header (with its blank line) to a
+    // multiple of four bytes.
+    let pad = (4 - (head.len() + 3) % 4) % 4;
+    head.insert_str(9, &format!("#{}\n", " ".repeat(pad)));
+    head.push('\n');
+    assert_eq!(head.len() % 4, 0);
+    let mut bytes = head.into_bytes();
+    for i in 0..512u32 {
+        bytes.extend_from_slice(&((i % 37) as f32 * 0.25).to_ne_bytes());
+    }
+    std::fs::write(dir.join("v.nrrd"), bytes).unwrap();
+    let run = |n: &str, mmap: Option<&str>, prefix: &str| -> (String, Vec<u8>) {
+        let mut c = Command::new(RENDR);
+        c.args([
+            "turn", "-i", "v.nrrd", "-fr", "90", "-200", "70", "-at", "4", "4", "4",
+        ])
+        .args([
+            "-up", "0", "0", "1", "-fov", "30", "-n", n, "-f", "nrrd", "-o", prefix,
+        ])
+        .args(COMMON)
+        .env("RND_VERBOSE", "1")
+        .env_remove("RENDR_MMAP")
+        .current_dir(&dir);
+        if let Some(m) = mmap {
+            c.env("RENDR_MMAP", m);
+        }
+        let o = c.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "turn -n {n}: {err}");
+        let frame = std::fs::read(dir.join(format!("{prefix}-0000.nrrd"))).unwrap();
+        (err, frame)
+    };
+    let held = "the volume's samples are held in memory";
+    let mapped = "the volume's samples are mapped from its file";
+    let mut frames = Vec::new();
+    for (n, mmap, says) in [
+        ("3", None, held),
+        ("1", None, mapped),
+        ("3", Some("1"), mapped),
+        ("1", Some("0"), held),
+    ] {
+        let prefix = format!("f{}{}", n, mmap.unwrap_or("-"));
+        let (err, frame) = run(n, mmap, &prefix);
+        assert!(
+            err.contains(says),
+            "turn -n {n}, RENDR_MMAP {mmap:?}: {err}"
+        );
+        // (The header names the file; the samples after it must agree.)
+        frames.push(frame[frame.len() - 40 * 32 * 4..].to_vec());
+    }
+    assert!(frames.windows(2).all(|w| w[0] == w[1]));
+    // (Rays that hit the volume: not an empty image.)
+    assert!(frames[0].iter().any(|&b| b != 0));
+}

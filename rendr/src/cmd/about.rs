@@ -34,8 +34,9 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          with -ref false, geometry in f64 and convolution and blending in f32.\n\
          Threads available: {}. Verbosity (RND_VERBOSE): {verbose}.\n\
          Vector paths in use: {} (same images with any; RND_AVX2=0 or RND_AVX512=0\n\
-         turn the wider ones off). Raw NRRD volumes are mapped, not copied\n\
-         (RENDR_MMAP=0 reads them into memory); large ones whose rows share cache\n\
+         turn the wider ones off). Raw NRRD volumes are mapped, not copied, for\n\
+         one frame and read into memory for many (turn, view; RENDR_MMAP=0 reads\n\
+         and RENDR_MMAP=1 maps always); large ones whose rows share cache\n\
          sets render from a copy with padded rows on AMD processors (here: {}),\n\
          where it was measured to pay (RENDR_PAD=0: never; RENDR_PAD=1: on any).",
         env!("CARGO_PKG_VERSION"),

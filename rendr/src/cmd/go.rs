@@ -192,7 +192,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            (docs/SCALING.md); -db is refused there (run it without mpirun).\n\
            A NRRD whose samples are raw float or short in this machine's byte order is \
            used in place through a memory map of the file (no copy): do not change the \
-           file while it renders, or set RENDR_MMAP=0 to read it into memory instead. \
+           file while it renders, or set RENDR_MMAP=0 to read it into memory instead \
+           (turn and view, which render many frames, read it by default; RENDR_MMAP=1 \
+           maps it there too). \
            A volume of 16 MiB or more whose rows are a multiple of 512 bytes long, \
            rendered with a kernel of support 3 or more and no skip grid, is rendered \
            from a copy with padded rows on AMD processors (the same image; such rows \
@@ -501,7 +503,7 @@ impl VolumeCache {
             }
         }
         self.last = None;
-        let v = std::rc::Rc::new(load_volume(path, threads)?);
+        let v = std::rc::Rc::new(load_volume(path, threads, Frames::One)?);
         if path.as_os_str() != "-" {
             self.last = Some((path.to_path_buf(), v.clone()));
         }
@@ -509,18 +511,41 @@ impl VolumeCache {
     }
 }
 
-/// The volume in `path` for rendering (go, turn, view): raw NRRD samples used in place
-/// from a map of the file where they can be (`load_volume_mapped`), unless the
-/// environment says `RENDR_MMAP=0` (then every file is read into memory); rendered from
-/// a copy with padded rows where that pays (`VolumeBuf::render_view`, `Padding::Auto`),
-/// unless it says `RENDR_PAD=0` (never) or `RENDR_PAD=1` (on any processor).
-pub fn load_volume(path: &Path, threads: usize) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
+/// How many frames a command renders from one loaded volume: what decides whether its
+/// raw samples are mapped or read ([`load_volume`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Frames {
+    /// One (`go`, `mgo`, `turn -n 1`): the file's samples are used in place.
+    One,
+    /// Several (`turn`, `view`): the samples are read into memory.
+    Many,
+}
+
+/// The volume in `path` for rendering (go, turn, view). Raw NRRD samples are used in
+/// place from a map of the file (`load_volume_mapped`) for one frame and read into memory
+/// (`load_volume_threads`: one allocation advised to the system's huge pages) for many:
+/// the map costs nothing up front, but its 4 KiB pages make each frame slower where a
+/// frame's rays range over many pages (the 256³ bench volume's value MIP on the Intel
+/// Xeon: frames 0.31–0.33 s mapped, 0.23–0.25 s read; a five-frame `turn` 1.58–1.66 s
+/// against 1.68–2.02 s; bench/RESULTS.md run 58). `RENDR_MMAP=0` reads and `RENDR_MMAP=1`
+/// maps whatever the frames. Rendered from a copy with padded rows where that pays
+/// (`VolumeBuf::render_view`, `Padding::Auto`), unless the environment says
+/// `RENDR_PAD=0` (never) or `RENDR_PAD=1` (on any processor).
+pub fn load_volume(
+    path: &Path,
+    threads: usize,
+    frames: Frames,
+) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
     use rnd_std::volume_io::Padding;
-    let env_off = |name: &str| std::env::var_os(name).is_some_and(|v| v == "0");
-    let mut vol = if env_off("RENDR_MMAP") {
-        rnd_std::volume_io::load_volume_threads(path, threads)?
-    } else {
+    let map = match std::env::var_os("RENDR_MMAP") {
+        Some(v) if v == "0" => false,
+        Some(v) if v == "1" => true,
+        _ => frames == Frames::One,
+    };
+    let mut vol = if map {
         rnd_std::volume_io::load_volume_mapped(path, threads)?
+    } else {
+        rnd_std::volume_io::load_volume_threads(path, threads)?
     };
     vol.set_padding(match std::env::var_os("RENDR_PAD") {
         Some(v) if v == "0" => Padding::Never,

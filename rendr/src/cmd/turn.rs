@@ -24,7 +24,10 @@ pub static SPEC: CmdSpec = CmdSpec {
            frame i renders on process i mod N, each reading the whole volume, and \
            process 0 writes the files one process would write. The volume's skip grid \
            is built for a process's first frame and kept for its others (it does not \
-           depend on the camera); RND_VERBOSE=1 prints each frame's render time.",
+           depend on the camera); RND_VERBOSE=1 prints each frame's render time. With \
+           more than one frame the volume's samples are read into memory (one allocation \
+           the system may back with huge pages: quicker frames than a map of the file \
+           gives), unless RENDR_MMAP=1.",
     response_files: true,
     opts: super::go::go_opts!(
         crate::args::req(&["n"], 1, "frames", "number of frames (1 to 100000)"),
@@ -267,8 +270,24 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
             .context("-n")?;
     }
     let (lut, lev, lights) = super::go::classification(a)?;
-    let vol = super::go::load_volume(Path::new(&input), threads).with_context(|| input.clone())?;
+    let many = if n > 1 {
+        super::go::Frames::Many
+    } else {
+        super::go::Frames::One
+    };
+    let vol =
+        super::go::load_volume(Path::new(&input), threads, many).with_context(|| input.clone())?;
     let verbose = super::go::verbose();
+    if verbose {
+        eprintln!(
+            "rendr turn: the volume's samples are {}",
+            if vol.is_mapped() {
+                "mapped from its file"
+            } else {
+                "held in memory"
+            }
+        );
+    }
     let mut frames: Vec<Option<Frame>> = Vec::with_capacity(n);
     let mut colour = PngColor::Rgb;
     for (i, cam) in cams.iter().enumerate() {

@@ -145,7 +145,8 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         .parse()
         .map_err(|_| anyhow::anyhow!("-port: need a TCP port number 0..=65535"))?;
     let threads = rnd_std::parallel::default_threads();
-    let vol = super::go::load_volume(Path::new(&path), threads).with_context(|| path.clone())?;
+    let vol = super::go::load_volume(Path::new(&path), threads, super::go::Frames::Many)
+        .with_context(|| path.clone())?;
     let words = first_words(a, &vol)?;
     // The first settings must render: their errors name the option now.
     let first = crate::view::request_args(&words).map_err(|e| anyhow::anyhow!(e.1))?;
