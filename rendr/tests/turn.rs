@@ -214,22 +214,16 @@ fn bad_input_fails_before_writing() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A turn of several frames holds the volume's samples in memory (its frames render
-/// quicker from pages the system can make large); one frame uses a raw NRRD in place
-/// from a map of the file, as `go` does. `RENDR_MMAP=0` and `=1` choose either way, and
-/// the frames are the same bytes whichever holds the samples.
-#[test]
-fn many_frames_hold_the_samples_in_memory() {
-    let dir = rnd_tests::tmpdir("turn-hold");
-    // A raw float NRRD in this machine's byte order whose samples start at a multiple of
-    // four bytes: one that can be mapped.
+/// A raw float NRRD of n³ samples in this machine's byte order whose samples start at a
+/// multiple of four bytes: one that can be mapped.
+fn raw_nrrd(path: &Path, n: usize) {
     let endian = if cfg!(target_endian = "little") {
         "little"
     } else {
         "big"
     };
     let mut head = format!(
-        "NRRD0004\ntype: float\ndimension: 3\nsizes: 8 8 8\nendian: {endian}\nencoding: raw\n"
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: {n} {n} {n}\nendian: {endian}\nencoding: raw\n"
     );
     // A comment line of the length that brings the header (with its blank line) to a
     // multiple of four bytes.
@@ -238,10 +232,20 @@ fn many_frames_hold_the_samples_in_memory() {
     head.push('\n');
     assert_eq!(head.len() % 4, 0);
     let mut bytes = head.into_bytes();
-    for i in 0..512u32 {
+    for i in 0..n * n * n {
         bytes.extend_from_slice(&((i % 37) as f32 * 0.25).to_ne_bytes());
     }
-    std::fs::write(dir.join("v.nrrd"), bytes).unwrap();
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A turn of several frames holds the volume's samples in memory (its frames render
+/// quicker from pages the system can make large); one frame uses a raw NRRD in place
+/// from a map of the file, as `go` does. `RENDR_MMAP=0` and `=1` choose either way, and
+/// the frames are the same bytes whichever holds the samples.
+#[test]
+fn many_frames_hold_the_samples_in_memory() {
+    let dir = rnd_tests::tmpdir("turn-hold");
+    raw_nrrd(&dir.join("v.nrrd"), 8);
     let run = |n: &str, mmap: Option<&str>, prefix: &str| -> (String, Vec<u8>) {
         let mut c = Command::new(RENDR);
         c.args([
@@ -284,4 +288,35 @@ fn many_frames_hold_the_samples_in_memory() {
     assert!(frames.windows(2).all(|w| w[0] == w[1]));
     // (Rays that hit the volume: not an empty image.)
     assert!(frames[0].iter().any(|&b| b != 0));
+}
+
+/// A volume that would take more than half the memory the process may use stays mapped
+/// however many frames are rendered: a 10 MB volume under a 16 MiB data-segment limit
+/// (`ulimit -d`, which a read-only map of a file does not count against).
+#[cfg(target_os = "linux")]
+#[test]
+fn a_volume_too_big_to_hold_stays_mapped() {
+    let dir = rnd_tests::tmpdir("turn-big");
+    raw_nrrd(&dir.join("mid.nrrd"), 136);
+    for (limit, says) in [
+        ("16384", "the volume's samples are mapped from its file"),
+        ("65536", "the volume's samples are held in memory"),
+    ] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -d {limit} && exec \"$0\" turn -i mid.nrrd -fr 900 -2000 700 \
+                 -at 60 60 60 -up 0 0 1 -fov 30 -sz 16 16 -k tent -nc -150 -fc 150 -n 2 \
+                 -f nrrd -o f"
+            ))
+            .arg(RENDR)
+            .env("RND_VERBOSE", "1")
+            .env_remove("RENDR_MMAP")
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "ulimit -d {limit}: {err}");
+        assert!(err.contains(says), "ulimit -d {limit}: {err}");
+    }
 }

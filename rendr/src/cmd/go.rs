@@ -193,8 +193,8 @@ pub static SPEC: CmdSpec = CmdSpec {
            A NRRD whose samples are raw float or short in this machine's byte order is \
            used in place through a memory map of the file (no copy): do not change the \
            file while it renders, or set RENDR_MMAP=0 to read it into memory instead \
-           (turn and view, which render many frames, read it by default; RENDR_MMAP=1 \
-           maps it there too). \
+           (turn and view, which render many frames, read it by default where it takes at \
+           most half the memory the process may use; RENDR_MMAP=1 maps it there too). \
            A volume of 16 MiB or more whose rows are a multiple of 512 bytes long, \
            rendered with a kernel of support 3 or more and no skip grid, is rendered \
            from a copy with padded rows on AMD processors (the same image; such rows \
@@ -522,30 +522,42 @@ pub enum Frames {
 }
 
 /// The volume in `path` for rendering (go, turn, view). Raw NRRD samples are used in
-/// place from a map of the file (`load_volume_mapped`) for one frame and read into memory
-/// (`load_volume_threads`: one allocation advised to the system's huge pages) for many:
+/// place from a map of the file (`load_volume_mapped`) for one frame, and for many read
+/// into memory (`load_volume_threads`: one allocation advised to the system's huge pages)
+/// when they take at most half the memory this process may use (`rnd_std::mem_limit`):
 /// the map costs nothing up front, but its 4 KiB pages make each frame slower where a
-/// frame's rays range over many pages (the 256³ bench volume's value MIP on the Intel
-/// Xeon: frames 0.31–0.33 s mapped, 0.23–0.25 s read; a five-frame `turn` 1.58–1.66 s
-/// against 1.68–2.02 s; bench/RESULTS.md run 58). `RENDR_MMAP=0` reads and `RENDR_MMAP=1`
-/// maps whatever the frames. Rendered from a copy with padded rows where that pays
-/// (`VolumeBuf::render_view`, `Padding::Auto`), unless the environment says
-/// `RENDR_PAD=0` (never) or `RENDR_PAD=1` (on any processor).
+/// frame's rays range over many pages (the 256³ bench volume's MIPs on the Intel Xeon:
+/// frames 1.17–1.35× quicker read; bench/RESULTS.md run 58), and a larger volume stays
+/// mapped. `RENDR_MMAP=0` reads and `RENDR_MMAP=1` maps whatever the frames. Rendered
+/// from a copy with padded rows where that pays (`VolumeBuf::render_view`,
+/// `Padding::Auto`), unless the environment says `RENDR_PAD=0` (never) or `RENDR_PAD=1`
+/// (on any processor).
 pub fn load_volume(
     path: &Path,
     threads: usize,
     frames: Frames,
 ) -> anyhow::Result<rnd_std::volume_io::VolumeBuf> {
-    use rnd_std::volume_io::Padding;
-    let map = match std::env::var_os("RENDR_MMAP") {
-        Some(v) if v == "0" => false,
-        Some(v) if v == "1" => true,
-        _ => frames == Frames::One,
-    };
-    let mut vol = if map {
-        rnd_std::volume_io::load_volume_mapped(path, threads)?
-    } else {
-        rnd_std::volume_io::load_volume_threads(path, threads)?
+    use rnd_std::volume_io::{load_volume_mapped, load_volume_threads, Padding, Samples};
+    let mut vol = match std::env::var_os("RENDR_MMAP") {
+        Some(v) if v == "0" => load_volume_threads(path, threads)?,
+        Some(v) if v == "1" => load_volume_mapped(path, threads)?,
+        _ if frames == Frames::One => load_volume_mapped(path, threads)?,
+        _ => {
+            // Mapped first (which costs next to nothing and tells the size), then read
+            // where it fits.
+            let v = load_volume_mapped(path, threads)?;
+            let bytes = match v.data() {
+                Samples::F32(d) => std::mem::size_of_val(d),
+                Samples::I16(d) => std::mem::size_of_val(d),
+            } as u64;
+            let fits = rnd_std::mem_limit().is_none_or(|m| bytes <= m / 2);
+            if v.is_mapped() && fits {
+                drop(v);
+                load_volume_threads(path, threads)?
+            } else {
+                v
+            }
+        }
     };
     vol.set_padding(match std::env::var_os("RENDR_PAD") {
         Some(v) if v == "0" => Padding::Never,

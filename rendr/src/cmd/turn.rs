@@ -27,7 +27,8 @@ pub static SPEC: CmdSpec = CmdSpec {
            depend on the camera); RND_VERBOSE=1 prints each frame's render time. With \
            more than one frame the volume's samples are read into memory (one allocation \
            the system may back with huge pages: quicker frames than a map of the file \
-           gives), unless RENDR_MMAP=1.",
+           gives) unless they would take more than half the memory the process may use \
+           or RENDR_MMAP=1.",
     response_files: true,
     opts: super::go::go_opts!(
         crate::args::req(&["n"], 1, "frames", "number of frames (1 to 100000)"),
