@@ -185,12 +185,11 @@ impl Linear {
     }
 }
 
-/// What building a [`SkipGrid`] needs, split so that slabs of coarse blocks can be
-/// built independently (e.g. on several threads): [`SkipPlan::outputs`] gives the
-/// grids, [`SkipPlan::split`] cuts them into parts of whole coarse slabs,
-/// [`SkipPlan::build_slabs`] fills one part, and [`SkipPlan::finish`] adds the distance
-/// map. [`SkipPlan::build`] does all of it on one thread; the result is the same
-/// however the slabs are shared out.
+/// What building a [`SkipGrid`] needs, split so that runs of coarse slabs can be built
+/// independently (e.g. on several threads, in any order): [`SkipPlan::build_run`]
+/// fills the grids of one run, and [`SkipPlan::finish`] puts the runs together.
+/// [`SkipPlan::build`] does all of it at once; the result is the same however the slabs
+/// are shared out.
 #[derive(Debug, Clone)]
 pub struct SkipPlan<'l> {
     kind: SkipKind,
@@ -345,7 +344,7 @@ fn start_tests(runs: &[(f64, f64)], wneg: f64, m: f32, mx: f32) -> Option<[(f32,
 /// The grids a [`SkipPlan`] fills: fine flags and coarse emptiness ([`SkipKind::Opacity`])
 /// or fine and coarse bounds (the `max` kinds); the other pair is empty.
 #[derive(Debug, Clone, Default)]
-pub struct SkipCells {
+struct SkipCells {
     fine: Vec<u8>,
     starts: Vec<u64>,
     empty: Vec<bool>,
@@ -353,14 +352,30 @@ pub struct SkipCells {
     coarse_hi: Vec<f32>,
 }
 
-/// The part of [`SkipCells`] that holds a run of coarse slabs.
-#[derive(Debug, Default)]
-pub struct SkipPart<'o> {
-    fine: &'o mut [u8],
-    starts: &'o mut [u64],
-    empty: &'o mut [bool],
-    hi: &'o mut [f32],
-    coarse_hi: &'o mut [f32],
+impl SkipCells {
+    /// Appends `other`'s cells after these.
+    fn append(&mut self, mut other: SkipCells) {
+        self.fine.append(&mut other.fine);
+        self.starts.append(&mut other.starts);
+        self.empty.append(&mut other.empty);
+        self.hi.append(&mut other.hi);
+        self.coarse_hi.append(&mut other.coarse_hi);
+    }
+}
+
+/// The grids of one run of coarse slabs ([`SkipPlan::build_run`]), for
+/// [`SkipPlan::finish`].
+#[derive(Debug, Clone)]
+pub struct SkipRun {
+    slabs: core::ops::Range<usize>,
+    cells: SkipCells,
+}
+
+impl SkipRun {
+    /// The coarse slabs this run holds.
+    pub fn slabs(&self) -> core::ops::Range<usize> {
+        self.slabs.clone()
+    }
 }
 
 impl<'l> SkipPlan<'l> {
@@ -483,10 +498,9 @@ impl<'l> SkipPlan<'l> {
         self.kind
     }
 
-    /// The grids to fill, all clear.
-    pub fn outputs(&self) -> SkipCells {
-        let (nf, nb) = (self.nf, self.nb);
-        let (fine, coarse) = (nf[0] * nf[1] * nf[2], nb[0] * nb[1] * nb[2]);
+    /// The grids of coarse slabs `slabs` (at most [`SkipPlan::slabs`]), all clear.
+    fn outputs(&self, slabs: &core::ops::Range<usize>) -> SkipCells {
+        let (fine, coarse) = self.cell_counts(slabs);
         match self.test {
             Test::Opacity { .. } => SkipCells {
                 fine: alloc::vec![0; fine],
@@ -502,57 +516,44 @@ impl<'l> SkipPlan<'l> {
         }
     }
 
-    /// The parts of `cells` (from [`SkipPlan::outputs`]) that hold coarse slabs
-    /// `slabs.start` up to `slabs.end`, for [`SkipPlan::build_slabs`]; `slabs` must be
-    /// consecutive ranges from 0 covering all [`SkipPlan::slabs`], in order. Ranges
-    /// beyond the grids get what is left (nothing).
-    pub fn split<'o>(
-        &self,
-        cells: &'o mut SkipCells,
-        slabs: &[core::ops::Range<usize>],
-    ) -> Vec<SkipPart<'o>> {
-        fn cut<'o, T>(rest: &mut &'o mut [T], n: usize) -> &'o mut [T] {
-            let all = core::mem::take(rest);
-            let (part, tail) = all.split_at_mut(n.min(all.len()));
-            *rest = tail;
-            part
-        }
+    /// How many fine and coarse blocks coarse slabs `slabs` hold.
+    fn cell_counts(&self, slabs: &core::ops::Range<usize>) -> (usize, usize) {
         let (nf, nb) = (self.nf, self.nb);
-        let mut rest = SkipPart {
-            fine: &mut cells.fine,
-            starts: &mut cells.starts,
-            empty: &mut cells.empty,
-            hi: &mut cells.hi,
-            coarse_hi: &mut cells.coarse_hi,
-        };
-        let mut parts = Vec::with_capacity(slabs.len());
-        for r in slabs {
-            let nfine = ((r.end * R).min(nf[2]) - (r.start * R).min(nf[2])) * nf[0] * nf[1];
-            let ncoarse = r.len() * nb[0] * nb[1];
-            parts.push(SkipPart {
-                fine: cut(&mut rest.fine, nfine),
-                starts: cut(&mut rest.starts, nfine),
-                empty: cut(&mut rest.empty, ncoarse),
-                hi: cut(&mut rest.hi, nfine),
-                coarse_hi: cut(&mut rest.coarse_hi, ncoarse),
-            });
-        }
-        parts
+        let fine = ((slabs.end * R).min(nf[2]) - (slabs.start * R).min(nf[2])) * nf[0] * nf[1];
+        (fine, slabs.len() * nb[0] * nb[1])
     }
 
-    /// Fills coarse slabs `slabs` of the grids: `part` is exactly those slabs' part
-    /// (see [`SkipPlan::split`]).
-    pub fn build_slabs<V: Voxel>(
+    /// Whether `run`'s grids have the sizes this plan gives its slabs.
+    fn fits(&self, run: &SkipRun) -> bool {
+        let (f, c) = self.cell_counts(&run.slabs);
+        let x = &run.cells;
+        let (fine, starts, empty, hi, coarse_hi) = match self.test {
+            Test::Opacity { .. } => (f, f, c, 0, 0),
+            Test::Bound(_) => (0, 0, 0, f, c),
+        };
+        [
+            x.fine.len(),
+            x.starts.len(),
+            x.empty.len(),
+            x.hi.len(),
+            x.coarse_hi.len(),
+        ] == [fine, starts, empty, hi, coarse_hi]
+    }
+
+    /// The grids of coarse slabs `slabs` (those of them below [`SkipPlan::slabs`]).
+    pub fn build_run<V: Voxel>(
         &self,
         vol: &Volume<'_, V>,
         slabs: core::ops::Range<usize>,
-        part: SkipPart<'_>,
-    ) {
+    ) -> SkipRun {
+        let slabs = slabs.start.min(self.slabs())..slabs.end.min(self.slabs());
+        let mut cells = self.outputs(&slabs);
         // The plane minima and maxima vectorize best with AVX2 (and are exact anyway).
         crate::simd::wide(self.simd, {
             #[inline(always)]
-            || self.fill_slabs(vol, slabs, part)
+            || self.fill_slabs(vol, slabs.clone(), &mut cells)
         });
+        SkipRun { slabs, cells }
     }
 
     #[inline(always)]
@@ -560,7 +561,7 @@ impl<'l> SkipPlan<'l> {
         &self,
         vol: &Volume<'_, V>,
         slabs: core::ops::Range<usize>,
-        part: SkipPart<'_>,
+        part: &mut SkipCells,
     ) {
         let (sizes, nf, nb, kernel) = (self.sizes, self.nf, self.nb, self.kernel);
         let s = kernel.support();
@@ -720,17 +721,28 @@ impl<'l> SkipPlan<'l> {
 
     /// The whole grid, built on this thread.
     pub fn build<V: Voxel>(self, vol: &Volume<'_, V>) -> SkipGrid {
-        let mut cells = self.outputs();
-        let n = self.slabs();
-        let whole = core::iter::once(0..n).collect::<Vec<_>>();
-        if let Some(part) = self.split(&mut cells, &whole).pop() {
-            self.build_slabs(vol, 0..n, part);
-        }
-        self.finish(cells)
+        let whole = self.build_run(vol, 0..self.slabs());
+        self.grid(whole.cells)
     }
 
-    /// The grid from the filled `cells`.
-    pub fn finish(self, cells: SkipCells) -> SkipGrid {
+    /// The grid from runs of this plan (built from the same volume) in any order; None
+    /// unless they hold every coarse slab once, with this plan's grid sizes.
+    pub fn finish(&self, mut runs: Vec<SkipRun>) -> Option<SkipGrid> {
+        runs.sort_by_key(|r| r.slabs.start);
+        let mut end = 0;
+        let mut whole = SkipCells::default();
+        for r in runs {
+            if r.slabs.start != end || r.slabs.is_empty() || !self.fits(&r) {
+                return None;
+            }
+            end = r.slabs.end;
+            whole.append(r.cells);
+        }
+        (end == self.slabs()).then(|| self.grid(whole))
+    }
+
+    /// The grid of `cells`, all slabs' grids.
+    fn grid(&self, cells: SkipCells) -> SkipGrid {
         SkipGrid {
             kind: self.kind,
             kernel: self.kernel,
@@ -1140,6 +1152,70 @@ mod tests {
         assert!(!max(&v2, SkipKind::MaxGradMag).builds(&gm));
         let v = max(&vol, SkipKind::MaxValue).build(&vol);
         assert!(max(&v2, SkipKind::MaxValue).builds(&v));
+    }
+
+    /// Runs of coarse slabs built apart and put together in any order make the grid
+    /// built at once, for both kinds of grid; runs that miss a slab, hold one twice or
+    /// have another plan's grid sizes make none.
+    #[test]
+    fn runs_make_the_whole_grid() {
+        use super::{SkipKind, SkipPlan};
+        use crate::affine::Affine4;
+        use crate::kernel::KernelName;
+        use crate::txf::Lut;
+        use crate::volume::Volume;
+        let sizes = [21, 13, 75];
+        let d: Vec<f32> = (0..sizes.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 31) as f32 * if i / (21 * 13) < 30 { 0.0 } else { 1.0 })
+            .collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let vol = Volume::new(&d, sizes, itow).unwrap();
+        let other = Volume::new(&d[..30 * 13 * 40], [30, 13, 40], itow).unwrap();
+        let e: Vec<[f32; 4]> = (0..32)
+            .map(|i| [1.0, 1.0, 1.0, if i < 12 { 0.0 } else { 0.5 }])
+            .collect();
+        let lut = Lut::new(0.0, 31.0, e).unwrap();
+        let k = KernelName::Bspln3;
+        let plans = [
+            SkipPlan::new(&vol, k, &lut),
+            SkipPlan::for_max(&vol, k, SkipKind::MaxGradMag).unwrap(),
+        ];
+        for plan in &plans {
+            let n = plan.slabs();
+            assert!(n >= 5, "{n}");
+            let whole = plan.clone().build(&vol);
+            assert!(whole.empty_fraction() > 0.0 || plan.kind() != SkipKind::Opacity);
+            let runs = |cuts: &[usize]| -> Vec<_> {
+                cuts.windows(2)
+                    .map(|c| plan.build_run(&vol, c[0]..c[1]))
+                    .collect()
+            };
+            let mut r = runs(&[0, 2, 3, n]);
+            assert!(plan.finish(r.clone()) == Some(whole.clone()));
+            r.reverse();
+            assert!(plan.finish(r.clone()) == Some(whole.clone()));
+            // Past the last slab: clamped.
+            assert!(plan.finish(runs(&[0, 1, n + 3])) == Some(whole.clone()));
+            assert!(plan.finish(runs(&[0, 2, 3])).is_none(), "a slab missing");
+            let mut twice = runs(&[0, 2, n]);
+            twice.push(plan.build_run(&vol, 1..2));
+            assert!(plan.finish(twice).is_none(), "a slab twice");
+            // Another kind's run, or one of another volume's rows, has other grid sizes.
+            let other_kind = &plans[if plan.kind() == SkipKind::Opacity {
+                1
+            } else {
+                0
+            }];
+            let theirs = SkipPlan::new(&other, k, &lut);
+            for foreign in [
+                other_kind.build_run(&vol, 0..2),
+                theirs.build_run(&other, 0..2),
+            ] {
+                let mut mixed = runs(&[2, n]);
+                mixed.push(foreign);
+                assert!(plan.finish(mixed).is_none(), "a run of another plan");
+            }
+        }
     }
 
     /// The bound on Σ|w| (values and derivatives) holds between its samples too: no

@@ -226,13 +226,9 @@ impl PartialEq for KeptGrid {
 }
 
 impl KeptGrid {
-    /// The kept grid when `plan` builds it, else a new one (built on `threads` threads).
-    fn take_or_build<V: Voxel>(
-        &self,
-        plan: SkipPlan<'_>,
-        vol: &Volume<'_, V>,
-        threads: usize,
-    ) -> SkipGrid {
+    /// The kept grid when `plan` builds it; else none, counting the grid the caller will
+    /// build.
+    fn take(&self, plan: &SkipPlan<'_>) -> Option<SkipGrid> {
         // (A poisoned lock only means another render panicked holding it: the slot is
         // still an Option, whatever it holds.)
         let kept = self
@@ -241,10 +237,10 @@ impl KeptGrid {
             .unwrap_or_else(|e| e.into_inner())
             .take()
             .filter(|g| plan.builds(g));
-        kept.unwrap_or_else(|| {
+        if kept.is_none() {
             self.built.fetch_add(1, Ordering::Relaxed);
-            build_skip_grid(plan, vol, threads)
-        })
+        }
+        kept
     }
 
     /// Keeps `grid` for the next render.
@@ -313,21 +309,25 @@ fn render_kept(
             } else {
                 None
             };
-            let skip = spec
-                .skip_plan(&vol, K::NAME)
-                .filter(|_| {
-                    self.pilot.unwrap_or_else(|| {
-                        spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
-                    })
+            let plan = spec.skip_plan(&vol, K::NAME).filter(|_| {
+                self.pilot.unwrap_or_else(|| {
+                    spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
                 })
-                .map(|plan| {
-                    let mut g = match self.kept {
-                        Some(k) => k.take_or_build(plan, &vol, self.threads),
-                        None => build_skip_grid(plan, &vol, self.threads),
-                    };
-                    spec.aim::<V, K, S>(vol, &mut g);
-                    g
-                });
+            });
+            let aim = |g: &mut SkipGrid| spec.aim::<V, K, S>(vol, g);
+            // The grid: the one kept, or one built first on one thread, or by the render's
+            // own workers as they start (see `GridWork`).
+            let (mut ready, mut work) = (None, None);
+            if let Some(plan) = plan {
+                match self.kept.and_then(|k| k.take(&plan)) {
+                    Some(g) => ready = Some(g),
+                    None if self.threads <= 1 => ready = Some(plan.build(&vol)),
+                    None => work = Some(GridWork::new(plan, &vol, self.threads)),
+                }
+            }
+            if let Some(g) = &mut ready {
+                aim(g);
+            }
             let mut none: [(); 0] = [];
             let done = bands(
                 (&mut out, w * ch),
@@ -337,12 +337,17 @@ fn render_kept(
                 control,
                 |rows, chunk, _| {
                     let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
-                    spec.render_rows(vol.into(), K::NAME, skip.as_ref(), rows, chunk, clock);
+                    if let Some(w) = &work {
+                        w.help(&aim);
+                    }
+                    let grid = ready.as_ref().or_else(|| work.as_ref()?.grid());
+                    spec.render_rows(vol.into(), K::NAME, grid, rows, chunk, clock);
                     true
                 },
             );
-            // (Kept even when cancelled: the grid does not depend on how far it got.)
-            if let (Some(k), Some(g)) = (self.kept, skip) {
+            // (Kept even when cancelled: the grid does not depend on how far it got; a
+            // grid left unfinished is not kept.)
+            if let (Some(k), Some(g)) = (self.kept, ready.or_else(|| work?.into_grid())) {
                 k.keep(g);
             }
             (done == h).then_some(out)
@@ -623,28 +628,90 @@ fn cancelled() -> Error {
     Error::msg("the render was cancelled").with_kind(ErrorKind::Cancelled)
 }
 
-/// Builds the skip grid of `plan` with `threads` workers, each taking a run of whole
-/// coarse slabs (the same grid as one thread builds).
+/// Builds the skip grid of `plan` with `threads` workers, which take runs of coarse
+/// slabs ([`SkipPlan::build_run`]) from one queue (the same grid as one thread builds).
 pub fn build_skip_grid<V: Voxel>(
     plan: SkipPlan<'_>,
     vol: &Volume<'_, V>,
     threads: usize,
 ) -> SkipGrid {
-    let n = plan.slabs();
-    let t = threads.clamp(1, n.max(1));
-    if t == 1 {
+    if threads <= 1 {
         return plan.build(vol);
     }
-    let mut cells = plan.outputs();
-    let ranges: Vec<std::ops::Range<usize>> = (0..t).map(|i| i * n / t..(i + 1) * n / t).collect();
-    let parts = plan.split(&mut cells, &ranges);
-    let plan_ref = &plan;
+    let work = GridWork::new(plan, vol, threads);
     std::thread::scope(|s| {
-        for (r, part) in ranges.iter().cloned().zip(parts) {
-            s.spawn(move || plan_ref.build_slabs(vol, r, part));
+        for _ in 0..threads.min(work.runs) {
+            s.spawn(|| work.help(&|_| ()));
         }
     });
-    plan.finish(cells)
+    // (Every run is built once the workers are done, so the grid is there; were it not,
+    // one thread builds it.)
+    let GridWork { plan, grid, .. } = work;
+    grid.into_inner().unwrap_or_else(|| plan.build(vol))
+}
+
+/// A skip grid that several workers build together, run by run (about four runs of
+/// coarse slabs a worker, taken from one queue): each worker of a render helps before
+/// each band of rows it casts, and casts the band without the grid while another worker
+/// still builds the last runs (the same bits: skipping is exact). So the grid's build
+/// takes no thread start of its own, and a worker that starts late (here the second
+/// core often starts a thread 0.1–0.8 ms after it was spawned) holds nobody up.
+struct GridWork<'p, 'v, 'd, V: Voxel> {
+    plan: SkipPlan<'p>,
+    vol: &'v Volume<'d, V>,
+    /// The runs of coarse slabs not yet taken, the last first.
+    todo: Mutex<Vec<std::ops::Range<usize>>>,
+    /// The runs built, until the last is.
+    done: Mutex<Vec<rnd_core::skip::SkipRun>>,
+    /// How many runs there are.
+    runs: usize,
+    grid: std::sync::OnceLock<SkipGrid>,
+}
+
+impl<'p, 'v, 'd, V: Voxel> GridWork<'p, 'v, 'd, V> {
+    fn new(plan: SkipPlan<'p>, vol: &'v Volume<'d, V>, threads: usize) -> Self {
+        let n = plan.slabs();
+        let k = (4 * threads).clamp(1, n.max(1));
+        let todo: Vec<_> = (0..k).rev().map(|i| i * n / k..(i + 1) * n / k).collect();
+        GridWork {
+            plan,
+            vol,
+            runs: todo.len(),
+            todo: Mutex::new(todo),
+            done: Mutex::new(Vec::new()),
+            grid: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// Builds runs until none is left to take; the worker that builds the last puts the
+    /// grid together and hands it to `aim` before anyone may use it.
+    fn help(&self, aim: &(dyn Fn(&mut SkipGrid) + Sync)) {
+        while let Some(r) = self.todo.lock().ok().and_then(|mut q| q.pop()) {
+            let run = self.plan.build_run(self.vol, r);
+            let Ok(mut done) = self.done.lock() else {
+                return;
+            };
+            done.push(run);
+            if done.len() == self.runs {
+                let runs = std::mem::take(&mut *done);
+                drop(done);
+                if let Some(mut g) = self.plan.finish(runs) {
+                    aim(&mut g);
+                    let _ = self.grid.set(g);
+                }
+            }
+        }
+    }
+
+    /// The grid, once the last run is built.
+    fn grid(&self) -> Option<&SkipGrid> {
+        self.grid.get()
+    }
+
+    /// The grid, if the last run was built.
+    fn into_grid(self) -> Option<SkipGrid> {
+        self.grid.into_inner()
+    }
 }
 
 #[cfg(test)]
@@ -770,6 +837,37 @@ mod tests {
                     assert!(many == one, "{k:?} {kind:?} with {t} threads");
                 }
             }
+        }
+    }
+
+    /// Workers helping with a grid at once put it together once, aimed once, the grid one
+    /// thread builds; before any helps there is none.
+    #[test]
+    fn grid_work_is_put_together_once() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let sizes = [19, 23, 70];
+        let data: Vec<f32> = (0..sizes.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 97) as f32)
+            .collect();
+        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
+        let vol = Volume::new(&data, sizes, itow).unwrap();
+        let plan = SkipPlan::for_max(&vol, KernelName::Bspln3, SkipKind::MaxValue).unwrap();
+        let one = plan.clone().build(&vol);
+        for t in [1, 2, 3, 8] {
+            let work = super::GridWork::new(plan.clone(), &vol, t);
+            assert!(work.grid().is_none());
+            let aimed = AtomicUsize::new(0);
+            let aim = |_: &mut SkipGrid| {
+                aimed.fetch_add(1, Ordering::Relaxed);
+            };
+            std::thread::scope(|s| {
+                for _ in 0..t {
+                    s.spawn(|| work.help(&aim));
+                }
+            });
+            assert_eq!(aimed.into_inner(), 1, "{t} workers");
+            assert!(work.grid() == Some(&one), "{t} workers");
+            assert!(work.into_grid() == Some(one.clone()));
         }
     }
 
