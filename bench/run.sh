@@ -118,7 +118,7 @@ fi
 if [ "${ONLY:-all}" = all ] || [ "${ONLY:-all}" = threads ]; then
 echo
 ROUNDS2=${ROUNDS2:-9}
-echo "## rendr's 2-thread speed-up of the render phase (bspln3, max; RND_VERBOSE render time, volume reading excluded; best of $ROUNDS2 rounds, runs alternating)"
+echo "## rendr's 2-thread speed-up of the render phase (bspln3 MIPs, and the CT's lit \`over\` of the teem-miter section; RND_VERBOSE render time, volume reading excluded; best of $ROUNDS2 rounds, runs alternating)"
 echo
 echo "Each round runs the render with 1 thread, with 2 threads, and, as a control of what"
 echo "this machine gives two busy cores at that moment, two independent 1-thread renders at"
@@ -128,14 +128,19 @@ echo
 echo "Best-of times give the first columns; the last two are the medians, over the rounds, of"
 echo "each round's own ratios (1- and 2-thread runs a second apart), less swayed by spells."
 echo
-echo "| volume | query | 1 thread s | 2 threads s | speed-up | two 1-thread renders at once s | machine | median speed-up | median machine |"
+echo "| volume | rendering | 1 thread s | 2 threads s | speed-up | two 1-thread renders at once s | machine | median speed-up | median machine |"
 echo "|---|---|---|---|---|---|---|---|---|"
 for v in ct syn; do
   at=(${AT[$v]})
   fr="${at[0]} $(awk -v y="${at[1]}" 'BEGIN { print y - 400 }') ${at[2]}"
-  for q in v gm; do
+  qs="v gm"; [ "$v" = ct ] && qs="v gm over:tent over:bspln3"
+  for q in $qs; do
+    what=(-k bspln3 -p $q -b max)
+    if [ "${q%%:*}" = over ]; then
+      what=(-k "${q#over:}" -p rgbalit -b over -us $STEP -a1 0.99 -lut lut.nrrd -lit lit.txt -ph 0.2 0.8 0.1 150)
+    fi
     go=(go -i "${VOL[$v]}" -fr $fr -at ${AT[$v]} -up 0 0 1 -ortho -nc -130 -fc 130 \
-        -fov "$fov" -sz $SZ $SZ -k bspln3 -p $q -b max -s $STEP -ref "$ENGINE" -sp false)
+        -fov "$fov" -sz $SZ $SZ "${what[@]}" -s $STEP -ref "$ENGINE" -sp false)
     # 1- and 2-thread runs and the control alternate (so slow drifts of this shared
     # machine hit all three); best of ROUNDS2 each.
     b1=1e9; b2=1e9; bp=1e9
@@ -154,7 +159,8 @@ for v in ct syn; do
     ms=$(awk '{ print $1 / $2 }' rounds.txt | med)
     mm=$(awk '{ print 2 * $1 / $3 }' rounds.txt | med)
     awk -v v="$v" -v q="$q" -v a="$b1" -v b="$b2" -v p="$bp" -v ms="$ms" -v mm="$mm" 'BEGIN {
-      printf "| %s | %s/max | %.3f | %.3f | %.2fx | %.3f | %.2fx | %.2fx | %.2fx |\n", v, q, a, b, a / b, p, 2 * a / p, ms, mm }'
+      r = (q ~ /^over:/) ? "rgbalit/over " substr(q, 6) : q "/max"
+      printf "| %s | %s | %.3f | %.3f | %.2fx | %.3f | %.2fx | %.2fx | %.2fx |\n", v, r, a, b, a / b, p, 2 * a / p, ms, mm }'
   done
 done
 

@@ -329,19 +329,36 @@ fn render_kept(
                 aim(g);
             }
             let mut none: [(); 0] = [];
+            let w_ch = w * ch;
             let done = bands(
-                (&mut out, w * ch),
+                (&mut out, w_ch),
                 (&mut none, 0),
                 h,
                 self.threads,
                 control,
-                |rows, chunk, _| {
+                |mut rows, mut chunk, _| {
                     let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
+                    let grid = || ready.as_ref().or_else(|| work.as_ref()?.grid());
                     if let Some(w) = &work {
                         w.help(&aim);
+                        // Until another worker has put the grid together: a row at a
+                        // time without it (slower, the same bits), then the rest with it.
+                        while grid().is_none() && !rows.is_empty() {
+                            let (row, rest) = chunk.split_at_mut(w_ch);
+                            spec.render_rows(
+                                vol.into(),
+                                K::NAME,
+                                None,
+                                rows.start..rows.start + 1,
+                                row,
+                                clock,
+                            );
+                            (rows.start, chunk) = (rows.start + 1, rest);
+                        }
                     }
-                    let grid = ready.as_ref().or_else(|| work.as_ref()?.grid());
-                    spec.render_rows(vol.into(), K::NAME, grid, rows, chunk, clock);
+                    if !rows.is_empty() {
+                        spec.render_rows(vol.into(), K::NAME, grid(), rows, chunk, clock);
+                    }
                     true
                 },
             );
@@ -652,10 +669,11 @@ pub fn build_skip_grid<V: Voxel>(
 
 /// A skip grid that several workers build together, run by run (about four runs of
 /// coarse slabs a worker, taken from one queue): each worker of a render helps before
-/// each band of rows it casts, and casts the band without the grid while another worker
-/// still builds the last runs (the same bits: skipping is exact). So the grid's build
-/// takes no thread start of its own, and a worker that starts late (here the second
-/// core often starts a thread 0.1–0.8 ms after it was spawned) holds nobody up.
+/// each band of rows it casts, and casts rows one at a time without the grid while
+/// another worker still builds the last runs or aims the grid (the same bits: skipping
+/// is exact). So the grid's build takes no thread start of its own, and a worker that
+/// starts late (on the 2-vCPU machine of bench/RESULTS.md run 59 a spawned thread often
+/// starts 0.1–0.8 ms after it was spawned) holds nobody up.
 struct GridWork<'p, 'v, 'd, V: Voxel> {
     plan: SkipPlan<'p>,
     vol: &'v Volume<'d, V>,
