@@ -10,7 +10,7 @@
 //! batch; a sample of zero opacity under `over` changes only the count).
 
 use alloc::vec::Vec;
-use core::cell::Cell;
+use core::cell::{Cell, RefCell};
 
 use crate::arith::{gmag, Arith, BatchTask, Line, Memo};
 use crate::blend::{Accum, Blend, Kept, MAX_CHANNELS};
@@ -83,6 +83,8 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// Pixels `[h0, h1] × [v0, v1]` outside which no ray meets the volume's samples'
     /// supports, in either arithmetic ([`RenderSpec::reach`]); None: any may.
     pub reach: Option<[f64; 4]>,
+    /// The windows of the rows being cast ([`March::aim_rows`]).
+    pub win: RefCell<Option<Windows>>,
 }
 
 /// Where a ray's result goes: the pixel, or (for a brick) the partial blend and, under
@@ -188,15 +190,18 @@ impl Jumps {
     }
 }
 
-/// Per pixel of a render, the samples outside which none can have its support start in
-/// a fine block of an opacity grid that is not empty, as bits (one per `c` samples,
-/// `wpp` words a pixel, word i of every pixel in plane i). Made from a model of the rays' lines (pixel (hi, vi):
-/// `h + hi ph + vi pv + k d`, which orthographic views follow), each block's corners
-/// taken back to pixels and samples; a ray uses its window only when its own line lies
-/// within [`SLACK`] of the model's.
+/// Per pixel of a band of image rows, the samples outside which none can have its
+/// support start in a fine block of an opacity grid that is not empty, as bits (one per
+/// `c` samples, `wpp` words a pixel, word i of every pixel of the band in plane i).
+/// Made from a model of the rays' lines (pixel (hi, vi): `h + hi ph + vi pv + k d`,
+/// which orthographic views follow), each block's corners taken back to pixels and
+/// samples ([`Aim::windows`]); a ray uses its window only when its own line lies within
+/// [`SLACK`] of the model's.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Windows {
     size: [u32; 2],
+    /// The band's rows, `[first, end)`.
+    rows: [u32; 2],
     h: [f64; 3],
     ph: [f64; 3],
     pv: [f64; 3],
@@ -204,6 +209,40 @@ pub(crate) struct Windows {
     c: u32,
     wpp: usize,
     bits: Vec<u64>,
+}
+
+/// What each band of a render makes its [`Windows`] from: the model of the rays' lines,
+/// the range of (hi, vi, k) a block's corners span about its first support start, and
+/// the opacity grid's fine blocks that are not empty, by the first image row they may
+/// reach ([`March::aim`]). Made once a render, on one thread; the windows band by band,
+/// on the band's thread, in a small buffer (a whole image's windows took a millisecond
+/// or more of fresh memory on one thread, bench/RESULTS.md run 59).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Aim {
+    size: [u32; 2],
+    h: [f64; 3],
+    ph: [f64; 3],
+    pv: [f64; 3],
+    d: [f64; 3],
+    /// Rows of the inverse of the columns (ph, pv, d): (hi, vi, k) of a point.
+    inv: [[f64; 3]; 3],
+    /// The (hi, vi, k) range of a block's corners (widened by 2 × SLACK) about those of
+    /// its first support start.
+    clo: [f64; 3],
+    chi: [f64; 3],
+    kend: u32,
+    c: u32,
+    wpp: usize,
+    /// Fine blocks per axis of the grid.
+    nf: [usize; 3],
+    /// The fine blocks that are not empty and reach some pixel (their index in the
+    /// grid), ordered by the first image row they reach.
+    blocks: Vec<u32>,
+    /// For each image row r (and one past the last), where in `blocks` those that
+    /// first reach row r or later start.
+    starts: Vec<u32>,
+    /// The most rows past its first that a block reaches.
+    span: u32,
 }
 
 /// How far a ray's line, widened by its error, may lie from the model of [`Windows`]
@@ -218,7 +257,8 @@ impl Windows {
     /// The window of pixel (hi, vi) (its words), when its line `jl` follows the model.
     #[inline(always)]
     fn of(&self, jl: &Jumps, hi: u32, vi: u32) -> Option<[u64; WINDOW_WORDS]> {
-        if hi >= self.size[0] || vi >= self.size[1] || jl.d != self.d {
+        let [r0, r1] = self.rows;
+        if hi >= self.size[0] || !(r0..r1).contains(&vi) || jl.d != self.d {
             return None;
         }
         for a in 0..3 {
@@ -228,8 +268,8 @@ impl Windows {
             }
         }
         let (p, n) = (
-            (hi + self.size[0] * vi) as usize,
-            self.size[0] as usize * self.size[1] as usize,
+            (hi + self.size[0] * (vi - r0)) as usize,
+            self.size[0] as usize * (r1 - r0) as usize,
         );
         let mut w = [0; WINDOW_WORDS];
         for (i, x) in w.iter_mut().enumerate().take(self.wpp) {
@@ -513,7 +553,8 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
                     // Outside its window a sample is outside or transparent, which only
                     // the count sees, and only whether it is zero: the window first, the
                     // rest only while nothing is counted.
-                    match g.windows().and_then(|w| Some((w, w.of(&jl, hi, vi)?))) {
+                    let win = self.win.borrow();
+                    match win.as_ref().and_then(|w| Some((w, w.of(&jl, hi, vi)?))) {
                         Some((w, px)) => {
                             let b = &mut Batch::<A::Frac, N>::new();
                             let mut m = 0;
@@ -1498,12 +1539,11 @@ impl<'s, 'a, A: Arith> March<'s, 'a, A> {
 }
 
 impl<A: Arith> March<'_, '_, A> {
-    /// The [`Windows`] of this render's rays through its opacity grid; None without
-    /// one, when the rays' lines do not follow one model (perspective views) or when
-    /// the memory is not there.
-    pub(crate) fn windows(&self) -> Option<Windows> {
+    /// The [`Aim`] of this render's rays through its opacity grid; None without one,
+    /// when the rays' lines do not follow one model (perspective views) or when the
+    /// memory is not there.
+    pub(crate) fn aim(&self) -> Option<Aim> {
         use crate::math::v3::{cross, dot, sub};
-        use crate::math::{ceil, floor};
         let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
         let sp = self.spec;
         let kend = self.kend();
@@ -1528,9 +1568,6 @@ impl<A: Arith> March<'_, '_, A> {
         // Samples a bit, then the words a pixel needs.
         let c = kend.div_ceil(64 * wpp as u32);
         let wpp = kend.div_ceil(c).div_ceil(64) as usize;
-        let mut bits = Vec::new();
-        bits.try_reserve_exact(n * wpp).ok()?;
-        bits.resize(n * wpp, 0u64);
         // Every block has the same corners about its first support start: their
         // (hi, vi, k) ranges once, widened by 2 × SLACK.
         let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -1547,53 +1584,148 @@ impl<A: Arith> March<'_, '_, A> {
                 (clo[r], chi[r]) = (clo[r].min(t), chi[r].max(t));
             }
         }
+        let mut aim = Aim {
+            size: [w, h],
+            h: o.h,
+            ph,
+            pv,
+            d,
+            inv,
+            clo,
+            chi,
+            kend,
+            c,
+            wpp,
+            nf: g.fine_blocks().0,
+            blocks: Vec::new(),
+            starts: Vec::new(),
+            span: 0,
+        };
+        // The first row each block reaches (h: none), then the blocks by it.
+        let mut first = Vec::new();
+        let fine = g.fine_blocks().1;
+        first.try_reserve_exact(fine.len()).ok()?;
+        let mut counts = Vec::new();
+        counts.try_reserve_exact(h as usize + 2).ok()?;
+        counts.resize(h as usize + 2, 0u32);
+        for (i, &f) in fine.iter().enumerate() {
+            let reach = if f & FINE_EMPTY == 0 {
+                aim.reach(i)
+            } else {
+                None
+            };
+            let r = match reach {
+                Some(Ok(q)) => q,
+                Some(Err(())) => return None,
+                None => [0, 0, h, h, 0, 0],
+            };
+            aim.span = aim.span.max(r[3] - r[2]);
+            first.push(r[2]);
+            counts[r[2] as usize + 1] += 1;
+        }
+        for r in 1..counts.len() {
+            counts[r] += counts[r - 1];
+        }
+        let total = counts[h as usize] as usize;
+        aim.blocks.try_reserve_exact(total).ok()?;
+        aim.blocks.resize(total, 0);
+        aim.starts.try_reserve_exact(h as usize + 1).ok()?;
+        aim.starts.extend_from_slice(&counts[..h as usize + 1]);
+        for (i, &r) in first.iter().enumerate() {
+            if r < h {
+                let at = &mut counts[r as usize];
+                aim.blocks[*at as usize] = i as u32;
+                *at += 1;
+            }
+        }
+        Some(aim)
+    }
+}
+
+impl<A: Arith> March<'_, '_, A> {
+    /// Makes the windows of image rows `rows` from the opacity grid's [`Aim`] (none
+    /// without one), for the rays of those rows cast next.
+    pub(crate) fn aim_rows(&self, rows: core::ops::Range<u32>) {
+        let aim = self
+            .skip
+            .and_then(|g| g.aim())
+            .filter(|_| self.own.is_none());
+        *self.win.borrow_mut() = aim.and_then(|a| a.windows(rows));
+    }
+}
+
+impl Aim {
+    /// The pixels and samples that fine block `i` (its index in the grid) may reach:
+    /// `[h0, h1 + 1, v0, v1 + 1, k0, k1 + 1]`, None when none; an error when the
+    /// arithmetic fails (the model gives non-finite numbers).
+    fn reach(&self, i: usize) -> Option<Result<[u32; 6], ()>> {
+        use crate::math::v3::dot;
+        use crate::math::{ceil, floor};
+        let nf = self.nf;
+        let b = [i % nf[0], i / nf[0] % nf[1], i / (nf[0] * nf[1])].map(|b| b * FINE);
+        let p: [f64; 3] = core::array::from_fn(|a| b[a] as f64 - self.h[a]);
+        let t: [f64; 3] = core::array::from_fn(|r| dot(self.inv[r], p));
+        if !t.iter().all(|t| t.is_finite()) {
+            return Some(Err(()));
+        }
         // Whole pixels and samples in a range (far wider than this f64 arithmetic's
         // rounding, far narrower than the SLACK the blocks are widened by).
-        let first = |t: f64| ceil(t - 1e-6).max(0.0);
-        let last = |t: f64| floor(t + 1e-6);
-        for b in g.full_blocks() {
-            let p: [f64; 3] = core::array::from_fn(|a| b[a] as f64 - o.h[a]);
-            let t: [f64; 3] = core::array::from_fn(|r| dot(inv[r], p));
-            if !t.iter().all(|t| t.is_finite()) {
+        let ends = [self.size[0], self.size[1], self.kend];
+        let mut r = [0u32; 6];
+        for a in 0..3 {
+            let lo = ceil(t[a] + self.clo[a] - 1e-6).max(0.0);
+            let hi = floor(t[a] + self.chi[a] + 1e-6).min(ends[a] as f64 - 1.0);
+            if lo > hi {
                 return None;
             }
-            let (h0, h1) = (
-                first(t[0] + clo[0]),
-                last(t[0] + chi[0]).min(w as f64 - 1.0),
-            );
-            let (v0, v1) = (
-                first(t[1] + clo[1]),
-                last(t[1] + chi[1]).min(h as f64 - 1.0),
-            );
-            let (k0, k1) = (
-                first(t[2] + clo[2]),
-                last(t[2] + chi[2]).min(kend as f64 - 1.0),
-            );
-            if h0 > h1 || v0 > v1 || k0 > k1 {
+            (r[2 * a], r[2 * a + 1]) = (lo as u32, hi as u32 + 1);
+        }
+        Some(Ok(r))
+    }
+
+    /// The [`Windows`] of image rows `rows` (those inside the image); None when the
+    /// memory is not there.
+    pub(crate) fn windows(&self, rows: core::ops::Range<u32>) -> Option<Windows> {
+        let [w, h] = self.size;
+        let (r0, r1) = (rows.start.min(h), rows.end.min(h).max(rows.start.min(h)));
+        let n = w as usize * (r1 - r0) as usize;
+        let mut bits = Vec::new();
+        bits.try_reserve_exact(n * self.wpp).ok()?;
+        bits.resize(n * self.wpp, 0u64);
+        let c = self.c;
+        // The blocks that first reach rows r0 − span to r1 − 1: all that reach the band.
+        let (s0, s1) = (
+            self.starts[r0.saturating_sub(self.span) as usize] as usize,
+            self.starts[r1 as usize] as usize,
+        );
+        for &i in &self.blocks[s0..s1] {
+            let Some(Ok([h0, h1, v0, v1, k0, k1])) = self.reach(i as usize) else {
                 continue;
-            }
+            };
+            let (v0, v1) = (v0.max(r0), v1.min(r1));
             // The block's bits, word by word (each word a plane of pixels).
-            let (b0, b1) = (k0 as u32 / c, k1 as u32 / c);
+            let (b0, b1) = (k0 / c, (k1 - 1) / c);
             for i in (b0 / 64) as usize..=(b1 / 64) as usize {
                 let (lo, hi) = (i as u32 * 64, i as u32 * 64 + 63);
                 let (s, e) = (b0.max(lo) - lo, b1.min(hi) - lo);
                 let m = (u64::MAX >> (63 - e)) & (u64::MAX << s);
-                for vi in v0 as usize..=v1 as usize {
-                    let row = i * n + vi * w as usize;
-                    for x in &mut bits[row + h0 as usize..=row + h1 as usize] {
+                for vi in v0 as usize..v1 as usize {
+                    let row = i * n + (vi - r0 as usize) * w as usize;
+                    for x in &mut bits[row + h0 as usize..row + h1 as usize] {
                         *x |= m;
                     }
                 }
             }
         }
         Some(Windows {
-            size: [w, h],
-            h: o.h,
-            ph,
-            pv,
-            d,
+            size: self.size,
+            rows: [r0, r1],
+            h: self.h,
+            ph: self.ph,
+            pv: self.pv,
+            d: self.d,
             c,
-            wpp,
+            wpp: self.wpp,
             bits,
         })
     }
@@ -1606,16 +1738,28 @@ impl<A: Arith> March<'_, '_, A> {
     /// window (asserted); the number of such samples.
     pub(crate) fn check_windows(&self, hi: u32, vi: u32) -> usize {
         let kend = self.spec.kmax + 1;
-        let (Some(g), Some(w)) = (self.skip, self.windows()) else {
+        let (Some(g), Some(aim)) = (self.skip, self.aim()) else {
             return 0;
         };
         let ray = self.a.ray(hi, vi);
         let Some(l) = self.a.line(&ray, kend) else {
             return 0;
         };
-        let Some(px) = w.of(&self.jumps(&l, kend), hi, vi) else {
+        let jl = self.jumps(&l, kend);
+        // The pixel's window is the same in a band of this row alone, of rows about it
+        // and of the whole image.
+        let w = aim.windows(vi..vi + 1).expect("memory");
+        let Some(px) = w.of(&jl, hi, vi) else {
             return 0;
         };
+        for rows in [vi.saturating_sub(3)..vi + 5, 0..self.spec.size()[1]] {
+            let band = aim.windows(rows.clone()).expect("memory");
+            assert_eq!(
+                band.of(&jl, hi, vi),
+                Some(px),
+                "pixel ({hi}, {vi}), rows {rows:?}"
+            );
+        }
         let runs: Vec<(u32, u32)> = w.runs(px, (0, kend)).collect();
         let mut full = 0;
         for k in 0..kend {

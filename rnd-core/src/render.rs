@@ -508,8 +508,8 @@ impl<'a> RenderSpec<'a> {
         vol: Volume<'_, V>,
         grid: &mut SkipGrid,
     ) {
-        let w = self.with_march::<V, K, S, _>(vol, Some(&*grid), None, false, |m| m.windows());
-        grid.set_windows(w);
+        let a = self.with_march::<V, K, S, _>(vol, Some(&*grid), None, false, |m| m.aim());
+        grid.set_aim(a);
     }
 
     /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
@@ -903,6 +903,7 @@ impl<'a> RenderSpec<'a> {
         // Rays that miss the volume all give one result: cast once, then copied (unless
         // each pixel's time is asked for).
         let reach = m.bare_reach().filter(|_| clock.is_none());
+        m.aim_rows(rows.clone());
         let mut missed = None;
         for (r, vi, hi) in pixels(rows, w) {
             let at = (r * w + hi) * ch;
@@ -991,6 +992,7 @@ fn march<'s, 'a, A: crate::arith::Arith, K: Kernel<S>, const S: usize>(
         wait: core::cell::Cell::new(0),
         kept: core::cell::Cell::new(crate::blend::Kept::new()),
         reach,
+        win: core::cell::RefCell::new(None),
     }
 }
 
@@ -1009,8 +1011,10 @@ trait Cast {
     /// For tests: [`March::check_reach`].
     #[cfg(test)]
     fn check_reach(&self, hi: u32, vi: u32) -> usize;
-    /// [`March::windows`].
-    fn windows(&self) -> Option<crate::march::Windows>;
+    /// [`March::aim`].
+    fn aim(&self) -> Option<crate::march::Aim>;
+    /// [`March::aim_rows`].
+    fn aim_rows(&self, rows: core::ops::Range<u32>);
     /// [`March::bare_reach`].
     fn bare_reach(&self) -> Option<[f64; 4]>;
     /// Whether a brick's ray could not be cast exactly (see [`Own`]).
@@ -1038,8 +1042,11 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     fn check_reach(&self, hi: u32, vi: u32) -> usize {
         March::check_reach(self, hi, vi)
     }
-    fn windows(&self) -> Option<crate::march::Windows> {
-        March::windows(self)
+    fn aim(&self) -> Option<crate::march::Aim> {
+        March::aim(self)
+    }
+    fn aim_rows(&self, rows: core::ops::Range<u32>) {
+        March::aim_rows(self, rows)
     }
     fn bare_reach(&self) -> Option<[f64; 4]> {
         March::bare_reach(self)

@@ -77,7 +77,7 @@ pub struct SkipGrid {
     coarse_hi: Vec<f32>,
     /// Per pixel of the last render it was aimed for, the samples that can reach a
     /// block that is not empty ([`crate::render::RenderSpec::aim`]).
-    windows: Option<crate::march::Windows>,
+    aim: Option<crate::march::Aim>,
     /// What decides the grid besides the voxels, kind, kernel and sizes: the LUT (an
     /// opacity grid's) and the bound's coefficients (a `max` grid's, or an opacity
     /// grid's gradient-magnitude axis): see [`SkipPlan::builds`].
@@ -754,7 +754,7 @@ impl<'l> SkipPlan<'l> {
             empty: cells.empty,
             hi: cells.hi,
             coarse_hi: cells.coarse_hi,
-            windows: None,
+            aim: None,
             made: self.made(),
         }
     }
@@ -954,24 +954,20 @@ impl SkipGrid {
         self.kind
     }
 
-    /// Every fine block that is not empty: its first support start per axis.
-    pub(crate) fn full_blocks(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
-        let nf = self.nf;
-        self.fine
-            .iter()
-            .enumerate()
-            .filter(|&(_, &f)| f & FINE_EMPTY == 0)
-            .map(move |(i, _)| [i % nf[0], i / nf[0] % nf[1], i / (nf[0] * nf[1])].map(|b| b * F))
+    /// Fine blocks per axis, and their flags ([`FINE_EMPTY`], [`COARSE_EMPTY`]), first
+    /// axis fastest.
+    pub(crate) fn fine_blocks(&self) -> ([usize; 3], &[u8]) {
+        (self.nf, &self.fine)
     }
 
-    /// The windows the grid was last aimed with.
-    pub(crate) fn windows(&self) -> Option<&crate::march::Windows> {
-        self.windows.as_ref()
+    /// What the grid was last aimed with (each band's windows are made from it).
+    pub(crate) fn aim(&self) -> Option<&crate::march::Aim> {
+        self.aim.as_ref()
     }
 
-    /// Keeps `w` as the grid's windows.
-    pub(crate) fn set_windows(&mut self, w: Option<crate::march::Windows>) {
-        self.windows = w;
+    /// Keeps `a` as what the grid is aimed with.
+    pub(crate) fn set_aim(&mut self, a: Option<crate::march::Aim>) {
+        self.aim = a;
     }
 
     /// Whether the grid was built as `kind` for `kernel` on a volume of `sizes` (a
