@@ -84,7 +84,7 @@ pub(crate) struct March<'s, 'a, A: Arith> {
     /// supports, in either arithmetic ([`RenderSpec::reach`]); None: any may.
     pub reach: Option<[f64; 4]>,
     /// The windows of the rows being cast ([`March::aim_rows`]).
-    pub win: RefCell<Option<Windows>>,
+    pub win: RefCell<Option<Windows<'s>>>,
 }
 
 /// Where a ray's result goes: the pixel, or (for a brick) the partial blend and, under
@@ -198,16 +198,11 @@ impl Jumps {
 /// samples ([`Aim::windows`]); a ray uses its window only when its own line lies within
 /// [`SLACK`] of the model's.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Windows {
-    size: [u32; 2],
+pub(crate) struct Windows<'m> {
+    /// The model and the bits' layout.
+    aim: &'m Aim,
     /// The band's rows, `[first, end)`.
     rows: [u32; 2],
-    h: [f64; 3],
-    ph: [f64; 3],
-    pv: [f64; 3],
-    d: [f64; 3],
-    c: u32,
-    wpp: usize,
     bits: Vec<u64>,
 }
 
@@ -253,26 +248,26 @@ const SLACK: f64 = 0.25;
 const WINDOW_WORDS: usize = 4;
 const WINDOWS_MAX: usize = 1 << 23;
 
-impl Windows {
+impl Windows<'_> {
     /// The window of pixel (hi, vi) (its words), when its line `jl` follows the model.
     #[inline(always)]
     fn of(&self, jl: &Jumps, hi: u32, vi: u32) -> Option<[u64; WINDOW_WORDS]> {
-        let [r0, r1] = self.rows;
-        if hi >= self.size[0] || !(r0..r1).contains(&vi) || jl.d != self.d {
+        let ([r0, r1], m) = (self.rows, self.aim);
+        if hi >= m.size[0] || !(r0..r1).contains(&vi) || jl.d != m.d {
             return None;
         }
         for a in 0..3 {
-            let m = self.h[a] + hi as f64 * self.ph[a] + vi as f64 * self.pv[a];
-            if !((jl.h[a] - m).abs() + jl.e[a] <= SLACK) {
+            let at = m.h[a] + hi as f64 * m.ph[a] + vi as f64 * m.pv[a];
+            if !((jl.h[a] - at).abs() + jl.e[a] <= SLACK) {
                 return None;
             }
         }
         let (p, n) = (
-            (hi + self.size[0] * (vi - r0)) as usize,
-            self.size[0] as usize * (r1 - r0) as usize,
+            (hi + m.size[0] * (vi - r0)) as usize,
+            m.size[0] as usize * (r1 - r0) as usize,
         );
         let mut w = [0; WINDOW_WORDS];
-        for (i, x) in w.iter_mut().enumerate().take(self.wpp) {
+        for (i, x) in w.iter_mut().enumerate().take(m.wpp) {
             *x = *self.bits.get(i * n + p)?;
         }
         Some(w)
@@ -281,8 +276,8 @@ impl Windows {
     /// The stretches of samples in `ks` that a pixel's words `w` mark, in order.
     #[inline(always)]
     fn runs(&self, w: [u64; WINDOW_WORDS], ks: (u32, u32)) -> impl Iterator<Item = (u32, u32)> {
-        let c = self.c;
-        let end = ks.1.div_ceil(c).min(self.wpp as u32 * 64);
+        let c = self.aim.c;
+        let end = ks.1.div_ceil(c).min(self.aim.wpp as u32 * 64);
         let mut b = ks.0 / c;
         core::iter::from_fn(move || {
             let s = next_bit(&w, b, true, end)?;
@@ -1685,7 +1680,7 @@ impl Aim {
 
     /// The [`Windows`] of image rows `rows` (those inside the image); None when the
     /// memory is not there.
-    pub(crate) fn windows(&self, rows: core::ops::Range<u32>) -> Option<Windows> {
+    pub(crate) fn windows(&self, rows: core::ops::Range<u32>) -> Option<Windows<'_>> {
         let [w, h] = self.size;
         let (r0, r1) = (rows.start.min(h), rows.end.min(h).max(rows.start.min(h)));
         let n = w as usize * (r1 - r0) as usize;
@@ -1718,14 +1713,8 @@ impl Aim {
             }
         }
         Some(Windows {
-            size: self.size,
+            aim: self,
             rows: [r0, r1],
-            h: self.h,
-            ph: self.ph,
-            pv: self.pv,
-            d: self.d,
-            c,
-            wpp: self.wpp,
             bits,
         })
     }
