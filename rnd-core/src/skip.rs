@@ -731,8 +731,9 @@ impl<'l> SkipPlan<'l> {
         runs.sort_by_key(|r| r.slabs.start);
         let mut end = 0;
         let mut whole = SkipCells::default();
-        for r in runs {
-            if r.slabs.start != end || r.slabs.is_empty() || !self.fits(&r) {
+        // (A run of no slabs holds nothing: a plan of no slabs is finished by none.)
+        for r in runs.into_iter().filter(|r| !r.slabs.is_empty()) {
+            if r.slabs.start != end || !self.fits(&r) {
                 return None;
             }
             end = r.slabs.end;
@@ -1190,8 +1191,9 @@ mod tests {
             assert!(plan.finish(r.clone()) == Some(whole.clone()));
             r.reverse();
             assert!(plan.finish(r.clone()) == Some(whole.clone()));
-            // Past the last slab: clamped.
+            // Past the last slab: clamped; a run of no slabs changes nothing.
             assert!(plan.finish(runs(&[0, 1, n + 3])) == Some(whole.clone()));
+            assert!(plan.finish(runs(&[0, 2, 2, n])) == Some(whole.clone()));
             assert!(plan.finish(runs(&[0, 2, 3])).is_none(), "a slab missing");
             let mut twice = runs(&[0, 2, n]);
             twice.push(plan.build_run(&vol, 1..2));
