@@ -1635,9 +1635,7 @@ impl<A: Arith> March<'_, '_, A> {
         }
         Some(aim)
     }
-}
 
-impl<A: Arith> March<'_, '_, A> {
     /// Makes the windows of image rows `rows` from the opacity grid's [`Aim`] (none
     /// without one), for the rays of those rows cast next.
     pub(crate) fn aim_rows(&self, rows: core::ops::Range<u32>) {

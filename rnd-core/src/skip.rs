@@ -371,13 +371,6 @@ pub struct SkipRun {
     cells: SkipCells,
 }
 
-impl SkipRun {
-    /// The coarse slabs this run holds.
-    pub fn slabs(&self) -> core::ops::Range<usize> {
-        self.slabs.clone()
-    }
-}
-
 impl<'l> SkipPlan<'l> {
     /// The plan for `vol` reconstructed with `kernel` and opacities from `lut`
     /// ([`SkipKind::Opacity`]). A block is empty when every entry its samples can reach
