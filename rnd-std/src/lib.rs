@@ -153,6 +153,37 @@ pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<(
     })
 }
 
+/// `len` zeros, from memory the system hands over already cleared where it can (a fresh
+/// mapping: its pages are then touched first by whoever writes them, e.g. the render's
+/// workers, rather than all at once here); memory the system refuses is an error, as
+/// for [`try_reserve`], not an abort.
+///
+/// # Errors
+/// When the allocation fails.
+pub fn try_zeros(len: usize, what: &str) -> Result<Vec<f32>> {
+    let refused = || {
+        let bytes = (len as u64).saturating_mul(4);
+        Error::msg(format!(
+            "the system refused {} of memory for {what}",
+            human_bytes(bytes)
+        ))
+        .with_kind(ErrorKind::Memory)
+    };
+    if len == 0 {
+        return Ok(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<f32>(len).map_err(|_| refused())?;
+    // SAFETY: the layout's size is not zero (len > 0, f32 is 4 bytes).
+    let p = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<f32>();
+    if p.is_null() {
+        return Err(refused());
+    }
+    // SAFETY: `p` was allocated by the global allocator with the layout of `len` f32s
+    // (as a Vec of capacity `len` holds them), and its bytes are zero, a valid f32
+    // (+0.0) each: the Vec owns `len` initialized elements.
+    Ok(unsafe { Vec::from_raw_parts(p, len, len) })
+}
+
 /// Human-readable byte count ("1.5 GiB").
 pub fn human_bytes(b: u64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
@@ -188,3 +219,22 @@ pub fn simd_level_from_env() -> rnd_core::simd::SimdLevel {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+#[cfg(test)]
+mod tests {
+    /// Zeros of any length, and a refusal (not an abort) for more than the address space
+    /// can hold, naming what it was for.
+    #[test]
+    fn zeros_or_a_refusal() {
+        for n in [0usize, 1, 1000, 1 << 20] {
+            let v = super::try_zeros(n, "a test").unwrap();
+            assert_eq!(v.len(), n);
+            assert!(v.iter().all(|&x| x.to_bits() == 0));
+        }
+        for n in [usize::MAX / 4, (isize::MAX as usize) / 4 - 1] {
+            let e = super::try_zeros(n, "the test's floats").unwrap_err();
+            assert_eq!(e.kind, super::ErrorKind::Memory);
+            assert!(e.to_string().contains("the test's floats"), "{e}");
+        }
+    }
+}

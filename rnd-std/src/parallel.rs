@@ -279,9 +279,8 @@ fn render_kept(
         if spec.channels() == 1 { "" } else { "s" }
     );
     crate::check_memory((len as u64).saturating_mul(4), &what).map_err(image_err)?;
-    let mut out: Vec<f32> = Vec::new();
-    crate::try_reserve(&mut out, len, &what).map_err(image_err)?;
-    out.resize(len, 0.0);
+    // (Cleared by the system, not here: the workers touch their own rows' pages.)
+    let out = crate::try_zeros(len, &what).map_err(image_err)?;
     struct Task<'s, 'a, 'c> {
         spec: &'s RenderSpec<'a>,
         threads: usize,
