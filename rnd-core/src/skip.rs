@@ -353,22 +353,35 @@ struct SkipCells {
 }
 
 impl SkipCells {
-    /// Appends `other`'s cells after these.
-    fn append(&mut self, mut other: SkipCells) {
-        self.fine.append(&mut other.fine);
-        self.starts.append(&mut other.starts);
-        self.empty.append(&mut other.empty);
-        self.hi.append(&mut other.hi);
-        self.coarse_hi.append(&mut other.coarse_hi);
+    /// The lengths of the five grids.
+    fn lens(&self) -> [usize; 5] {
+        [
+            self.fine.len(),
+            self.starts.len(),
+            self.empty.len(),
+            self.hi.len(),
+            self.coarse_hi.len(),
+        ]
     }
 }
 
 /// The grids of one run of coarse slabs ([`SkipPlan::build_run`]), for
-/// [`SkipPlan::finish`].
+/// [`SkipPlan::put`] or [`SkipPlan::finish`].
 #[derive(Debug, Clone)]
 pub struct SkipRun {
     slabs: core::ops::Range<usize>,
     cells: SkipCells,
+}
+
+/// A plan's whole grids, filled run by run in any order ([`SkipPlan::assembly`],
+/// [`SkipPlan::put`]): each run is copied into place when it is put (by the thread that
+/// built it, say, while others still build theirs), and the grid is had at the end
+/// without a copy ([`SkipPlan::assemble`]).
+#[derive(Debug, Clone, Default)]
+pub struct SkipAssembly {
+    cells: SkipCells,
+    /// Which coarse slabs were put.
+    put: Vec<bool>,
 }
 
 impl<'l> SkipPlan<'l> {
@@ -516,21 +529,18 @@ impl<'l> SkipPlan<'l> {
         (fine, slabs.len() * nb[0] * nb[1])
     }
 
+    /// The lengths of the grids (as [`SkipCells::lens`]) of coarse slabs `slabs`.
+    fn lens(&self, slabs: &core::ops::Range<usize>) -> [usize; 5] {
+        let (f, c) = self.cell_counts(slabs);
+        match self.test {
+            Test::Opacity { .. } => [f, f, c, 0, 0],
+            Test::Bound(_) => [0, 0, 0, f, c],
+        }
+    }
+
     /// Whether `run`'s grids have the sizes this plan gives its slabs.
     fn fits(&self, run: &SkipRun) -> bool {
-        let (f, c) = self.cell_counts(&run.slabs);
-        let x = &run.cells;
-        let (fine, starts, empty, hi, coarse_hi) = match self.test {
-            Test::Opacity { .. } => (f, f, c, 0, 0),
-            Test::Bound(_) => (0, 0, 0, f, c),
-        };
-        [
-            x.fine.len(),
-            x.starts.len(),
-            x.empty.len(),
-            x.hi.len(),
-            x.coarse_hi.len(),
-        ] == [fine, starts, empty, hi, coarse_hi]
+        run.slabs.end <= self.slabs() && run.cells.lens() == self.lens(&run.slabs)
     }
 
     /// The grids of coarse slabs `slabs` (those of them below [`SkipPlan::slabs`]).
@@ -719,20 +729,63 @@ impl<'l> SkipPlan<'l> {
     }
 
     /// The grid from runs of this plan (built from the same volume) in any order; None
-    /// unless they hold every coarse slab once, with this plan's grid sizes.
-    pub fn finish(&self, mut runs: Vec<SkipRun>) -> Option<SkipGrid> {
-        runs.sort_by_key(|r| r.slabs.start);
-        let mut end = 0;
-        let mut whole = SkipCells::default();
-        // (A run of no slabs holds nothing: a plan of no slabs is finished by none.)
-        for r in runs.into_iter().filter(|r| !r.slabs.is_empty()) {
-            if r.slabs.start != end || !self.fits(&r) {
+    /// unless they hold every coarse slab once, with this plan's grid sizes. (As
+    /// [`SkipPlan::put`] of each into an [`SkipPlan::assembly`], then
+    /// [`SkipPlan::assemble`].)
+    pub fn finish(&self, runs: Vec<SkipRun>) -> Option<SkipGrid> {
+        let mut whole = self.assembly();
+        for r in runs {
+            if !self.put(&mut whole, r) {
                 return None;
             }
-            end = r.slabs.end;
-            whole.append(r.cells);
         }
-        (end == self.slabs()).then(|| self.grid(whole))
+        self.assemble(whole)
+    }
+
+    /// The whole grids of this plan, none of their slabs put yet. Their memory is
+    /// handed over cleared (untouched until runs are put in it).
+    pub fn assembly(&self) -> SkipAssembly {
+        SkipAssembly {
+            cells: self.outputs(&(0..self.slabs())),
+            put: alloc::vec![false; self.slabs()],
+        }
+    }
+
+    /// Copies `run`'s grids into their place in `whole`; false, copying nothing, when
+    /// `run` has grid sizes other than this plan gives its slabs, `whole` is not this
+    /// plan's, or one of the run's slabs was put before. A run of no slabs puts nothing.
+    pub fn put(&self, whole: &mut SkipAssembly, run: SkipRun) -> bool {
+        let s = run.slabs.clone();
+        if !self.fits(&run)
+            || whole.cells.lens() != self.lens(&(0..self.slabs()))
+            || whole.put.get(s.clone()).is_none_or(|p| p.contains(&true))
+        {
+            return false;
+        }
+        // Where the run's cells start in the whole grids (as `cell_counts` counts them).
+        let (f0, _) = self.cell_counts(&(0..s.start));
+        let c0 = s.start * self.nb[0] * self.nb[1];
+        fn copy<T: Copy>(to: &mut [T], at: usize, from: &[T]) {
+            if let Some(to) = to.get_mut(at..at + from.len()) {
+                to.copy_from_slice(from);
+            }
+        }
+        let (w, r) = (&mut whole.cells, &run.cells);
+        copy(&mut w.fine, f0, &r.fine);
+        copy(&mut w.starts, f0, &r.starts);
+        copy(&mut w.hi, f0, &r.hi);
+        copy(&mut w.empty, c0, &r.empty);
+        copy(&mut w.coarse_hi, c0, &r.coarse_hi);
+        whole.put[s].fill(true);
+        true
+    }
+
+    /// The grid of `whole` when every coarse slab was put in it once; None otherwise.
+    pub fn assemble(&self, whole: SkipAssembly) -> Option<SkipGrid> {
+        (whole.put.len() == self.slabs()
+            && !whole.put.contains(&false)
+            && whole.cells.lens() == self.lens(&(0..self.slabs())))
+        .then(|| self.grid(whole.cells))
     }
 
     /// The grid of `cells`, all slabs' grids.

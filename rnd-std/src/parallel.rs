@@ -678,8 +678,9 @@ struct GridWork<'p, 'v, 'd, V: Voxel> {
     vol: &'v Volume<'d, V>,
     /// The runs of coarse slabs not yet taken, the last first.
     todo: Mutex<Vec<std::ops::Range<usize>>>,
-    /// The runs built, until the last is.
-    done: Mutex<Vec<rnd_core::skip::SkipRun>>,
+    /// The whole grid, each run copied in by the worker that built it, and how many
+    /// runs are in it, until the last is.
+    done: Mutex<(rnd_core::skip::SkipAssembly, usize)>,
     /// How many runs there are.
     runs: usize,
     grid: std::sync::OnceLock<SkipGrid>,
@@ -690,29 +691,36 @@ impl<'p, 'v, 'd, V: Voxel> GridWork<'p, 'v, 'd, V> {
         let n = plan.slabs();
         let k = (4 * threads).clamp(1, n.max(1));
         let todo: Vec<_> = (0..k).rev().map(|i| i * n / k..(i + 1) * n / k).collect();
+        let whole = plan.assembly();
         GridWork {
             plan,
             vol,
             runs: todo.len(),
             todo: Mutex::new(todo),
-            done: Mutex::new(Vec::new()),
+            done: Mutex::new((whole, 0)),
             grid: std::sync::OnceLock::new(),
         }
     }
 
-    /// Builds runs until none is left to take; the worker that builds the last puts the
-    /// grid together and hands it to `aim` before anyone may use it.
+    /// Builds runs until none is left to take, putting each into the whole grid; the
+    /// worker that puts the last has the grid and hands it to `aim` before anyone may
+    /// use it.
     fn help(&self, aim: &(dyn Fn(&mut SkipGrid) + Sync)) {
         while let Some(r) = self.todo.lock().ok().and_then(|mut q| q.pop()) {
             let run = self.plan.build_run(self.vol, r);
             let Ok(mut done) = self.done.lock() else {
                 return;
             };
-            done.push(run);
-            if done.len() == self.runs {
-                let runs = std::mem::take(&mut *done);
+            let (whole, n) = &mut *done;
+            // (A run this plan built always fits it: `put` cannot fail here, and if it
+            // did, no grid would be made and the rows rendered without one.)
+            if self.plan.put(whole, run) {
+                *n += 1;
+            }
+            if *n == self.runs {
+                let whole = std::mem::take(whole);
                 drop(done);
-                if let Some(mut g) = self.plan.finish(runs) {
+                if let Some(mut g) = self.plan.assemble(whole) {
                     aim(&mut g);
                     let _ = self.grid.set(g);
                 }
