@@ -143,14 +143,18 @@ pub fn check_memory(bytes: u64, what: &str) -> Result<()> {
 /// # Errors
 /// When the reservation fails.
 pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<()> {
-    v.try_reserve_exact(additional).map_err(|_| {
-        let bytes = (additional as u64).saturating_mul(std::mem::size_of::<T>() as u64);
-        Error::msg(format!(
-            "the system refused {} of memory for {what}",
-            human_bytes(bytes)
-        ))
-        .with_kind(ErrorKind::Memory)
-    })
+    v.try_reserve_exact(additional)
+        .map_err(|_| refused::<T>(additional, what))
+}
+
+/// The error for `n` elements of `T` the system would not allocate for `what`.
+fn refused<T>(n: usize, what: &str) -> Error {
+    let bytes = (n as u64).saturating_mul(std::mem::size_of::<T>() as u64);
+    Error::msg(format!(
+        "the system refused {} of memory for {what}",
+        human_bytes(bytes)
+    ))
+    .with_kind(ErrorKind::Memory)
 }
 
 /// `len` zeros, from memory the system hands over already cleared where it can (a fresh
@@ -161,14 +165,7 @@ pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<(
 /// # Errors
 /// When the allocation fails.
 pub fn try_zeros(len: usize, what: &str) -> Result<Vec<f32>> {
-    let refused = || {
-        let bytes = (len as u64).saturating_mul(4);
-        Error::msg(format!(
-            "the system refused {} of memory for {what}",
-            human_bytes(bytes)
-        ))
-        .with_kind(ErrorKind::Memory)
-    };
+    let refused = || refused::<f32>(len, what);
     if len == 0 {
         return Ok(Vec::new());
     }
