@@ -848,20 +848,25 @@ mod lane_tests {
             if lanes.is_empty() {
                 continue;
             }
-            let mut v = [[0.0f32; 4]; LANES];
-            let mut vg = [[0.0f32; 4]; LANES];
-            lanes.convolve::<V, K, false>(&vol, simd, &mut v);
-            lanes.convolve::<V, K, true>(&vol, simd, &mut vg);
-            // The gradient alone (no value sums, where a level has such a path).
-            let mut g = [[0.0f32; 4]; LANES];
-            let batch = LaneBatch {
-                vol: &vol,
-                base: &lanes.base,
-                al: &lanes.al,
-                len: lanes.len,
-                value: false,
+            // A batch's value sums, its sums with the gradient, and the gradient alone (no
+            // value sums, where a level has such a path).
+            let sums = |lanes: &Lanes<S>| {
+                let mut v = [[0.0f32; 4]; LANES];
+                let mut vg = [[0.0f32; 4]; LANES];
+                lanes.convolve::<V, K, false>(&vol, simd, &mut v);
+                lanes.convolve::<V, K, true>(&vol, simd, &mut vg);
+                let mut g = [[0.0f32; 4]; LANES];
+                let batch = LaneBatch {
+                    vol: &vol,
+                    base: &lanes.base,
+                    al: &lanes.al,
+                    len: lanes.len,
+                    value: false,
+                };
+                crate::simd::lane_sums::<V, K, S, true>(simd, batch, &mut g);
+                [v, vg, g]
             };
-            crate::simd::lane_sums::<V, K, S, true>(simd, batch, &mut g);
+            let [v, vg, g] = sums(&lanes);
             for (l, p) in pts.iter().enumerate() {
                 let s = convolve::<V, K, S>(&vol, *p, true).unwrap();
                 let bits = |a: [f32; 4]| a.map(f32::to_bits);
@@ -879,6 +884,24 @@ mod lane_tests {
             };
             for pair in [[&done, &done], [other.as_ref().unwrap_or(&done), &done]] {
                 check_pair::<V, K, S>(&vol, simd, pair);
+            }
+            // A line and the same line one voxel over: other supports, the same offsets
+            // (and so the same weights) in every lane.
+            if let Some((_, ax)) = line {
+                let mut moved = Lanes::<S>::default();
+                let over = (ax + 1) % 3;
+                for p in &pts {
+                    let mut q = *p;
+                    q[over] -= 1.0;
+                    moved.push::<V, K>(&vol, q);
+                }
+                if moved.len() == pts.len() {
+                    let s = sums(&moved);
+                    let moved = (moved, s);
+                    for pair in [[&done, &moved], [&moved, &done]] {
+                        check_pair::<V, K, S>(&vol, simd, pair);
+                    }
+                }
             }
             *other = Some(done);
         }
