@@ -1014,7 +1014,10 @@ mod tests {
     /// the volume as it is.
     #[test]
     fn padded_copies_render_the_same_bits() {
-        use crate::volume_io::{padding_helps_here, Padding, VolumeBuf, VolumeData, ROW_PAD_BYTES};
+        use crate::volume_io::{
+            padding_helps_here, padding_pays_in_one_frame_here, Padding, VolumeBuf, VolumeData,
+            ROW_PAD_BYTES,
+        };
         use rnd_core::blend::Blend;
         use rnd_core::camera::CameraSpec;
         use rnd_core::light::{Light, LightSpace};
@@ -1090,6 +1093,15 @@ mod tests {
             vol.set_padding(Padding::Auto);
             let auto = row(vol.render_view(KernelName::Bspln3, 2)).0;
             assert_eq!(auto > sizes[0], padding_helps_here(), "{sizes:?}");
+            vol.set_padding(Padding::AutoOneFrame);
+            let once = row(vol.render_view(KernelName::Bspln3, 2)).0;
+            assert_eq!(
+                once > sizes[0],
+                padding_pays_in_one_frame_here(),
+                "{sizes:?}"
+            );
+            // (Pads in one frame only where it pads at all.)
+            assert!(!padding_pays_in_one_frame_here() || padding_helps_here());
         }
     }
 }

@@ -147,9 +147,13 @@ pub fn padding_pays(sizes: [usize; 3], bytes: usize, support: usize) -> bool {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Padding {
     /// Where [`padding_pays`] for the volume and the kernel, on a processor where the
-    /// copy was measured to pay ([`padding_helps_here`]).
+    /// copy was measured to pay over several frames ([`padding_helps_here`]).
     #[default]
     Auto,
+    /// As [`Padding::Auto`], for a volume rendered once: only on a processor where the
+    /// copy was measured to pay for itself within the frame that makes it
+    /// ([`padding_pays_in_one_frame_here`]).
+    AutoOneFrame,
     /// Where [`padding_pays`] for the volume and the kernel, on any processor.
     Always,
     /// Never: renders read the volume as it is.
@@ -163,6 +167,21 @@ pub enum Padding {
 /// 5% off later frames (none on an oblique view), while making it costs a first frame
 /// more than that (7–26% of a whole `go`, its fresh memory; runs 53, 56).
 pub fn padding_helps_here() -> bool {
+    amd_family().is_some()
+}
+
+/// Whether this processor is one on which [`Padding::AutoOneFrame`] pads: an AMD
+/// processor of family 0x1A (Zen 5) or later, where the copy paid for itself within one
+/// frame (bench/RESULTS.md run 46). On an AMD Zen 4 (family 0x19) it did not: a single
+/// `go` of the 256³ float volume's bspln3 MIPs took 3–6% longer with the copy, while
+/// later frames of `turn` were 1.05× (gradient) to 1.2× (value) quicker (run 61).
+pub fn padding_pays_in_one_frame_here() -> bool {
+    amd_family().is_some_and(|f| f >= 0x1A)
+}
+
+/// The processor's family (CPUID leaf 1: base family, plus the extended family where
+/// the base is 0xF) when it is an AMD processor; None otherwise.
+fn amd_family() -> Option<u32> {
     #[cfg(target_arch = "x86_64")]
     {
         // (`unsafe` for the toolchains before `__cpuid` became safe.)
@@ -170,10 +189,21 @@ pub fn padding_helps_here() -> bool {
         // SAFETY: CPUID exists on every x86_64 processor; leaf 0 always.
         let v = unsafe { std::arch::x86_64::__cpuid(0) };
         // "AuthenticAMD" in ebx, edx, ecx.
-        (v.ebx, v.edx, v.ecx) == (0x6874_7541, 0x6974_6e65, 0x444d_4163)
+        if (v.ebx, v.edx, v.ecx) != (0x6874_7541, 0x6974_6e65, 0x444d_4163) || v.eax < 1 {
+            return None;
+        }
+        #[allow(unused_unsafe)]
+        // SAFETY: as above; leaf 1 exists (the highest leaf, eax of leaf 0, is at least 1).
+        let a = unsafe { std::arch::x86_64::__cpuid(1) }.eax;
+        let base = (a >> 8) & 0xF;
+        Some(if base == 0xF {
+            base + ((a >> 20) & 0xFF)
+        } else {
+            base
+        })
     }
     #[cfg(not(target_arch = "x86_64"))]
-    false
+    None
 }
 
 /// A padded copy of a volume's samples: its rows `row` samples apart.
@@ -211,9 +241,7 @@ impl PartialEq for KeptPadded {
 /// repeated), and the row stride, copied on up to `threads` threads (a share of the
 /// slices each); None when memory is short: the copy is an optimization, so it is not
 /// made when it would take more than a quarter of what this process may hold
-/// ([`crate::mem_limit`]) or the system refuses it. The copy is asked to be backed by
-/// huge pages (bench/RESULTS.md run 61: on an AMD Zen 4 a 64 MiB copy in 4 KiB pages
-/// cost more than the padding saved in the frame that made it).
+/// ([`crate::mem_limit`]) or the system refuses it.
 fn pad_rows<V: Voxel>(vol: &Volume<'_, V>, threads: usize) -> Option<(Vec<V>, usize)> {
     let [s0, s1, s2] = vol.sizes();
     let row = s0 + ROW_PAD_BYTES / std::mem::size_of::<V>();
@@ -227,7 +255,6 @@ fn pad_rows<V: Voxel>(vol: &Volume<'_, V>, threads: usize) -> Option<(Vec<V>, us
     let (src, sstride) = (vol.data(), vol.slice_stride());
     let per = s2.div_ceil(threads.clamp(1, s2));
     let dst = &mut out.spare_capacity_mut()[..n];
-    crate::mapped::advise_huge(dst);
     std::thread::scope(|scope| {
         for (t, part) in dst.chunks_mut(per * row * s1).enumerate() {
             scope.spawn(move || {
@@ -315,6 +342,7 @@ impl VolumeBuf {
             Padding::Never => return false,
             Padding::Always => true,
             Padding::Auto => padding_helps_here(),
+            Padding::AutoOneFrame => padding_pays_in_one_frame_here(),
         };
         here && padding_pays(self.sizes(), bytes, kernel.support())
     }

@@ -37,8 +37,9 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
          turn the wider ones off). Raw NRRD volumes are mapped, not copied, for\n\
          one frame and read into memory for many (turn, view; RENDR_MMAP=0 reads\n\
          and RENDR_MMAP=1 maps always); large ones whose rows share cache\n\
-         sets render from a copy with padded rows on AMD processors (here: {}),\n\
-         where it was measured to pay (RENDR_PAD=0: never; RENDR_PAD=1: on any).",
+         sets render from a copy with padded rows on AMD processors, where it was\n\
+         measured to pay: for many frames on any AMD (here: {}), for one on Zen 5\n\
+         and later (here: {}) (RENDR_PAD=0: never; RENDR_PAD=1: on any).",
         env!("CARGO_PKG_VERSION"),
         if cfg!(debug_assertions) {
             "debug"
@@ -51,6 +52,11 @@ pub fn run(_a: &Args) -> anyhow::Result<()> {
         rnd_std::parallel::default_threads(),
         rnd_core::simd::Simd::at_most(rnd_std::simd_level_from_env()).describe(),
         if rnd_std::volume_io::padding_helps_here() {
+            "yes"
+        } else {
+            "no"
+        },
+        if rnd_std::volume_io::padding_pays_in_one_frame_here() {
             "yes"
         } else {
             "no"

@@ -199,7 +199,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            rendered with a kernel of support 3 or more and no skip grid, is rendered \
            from a copy with padded rows on AMD processors (the same image; such rows \
            share the cache's sets; on the Intel processors measured the copy costs more \
-           than it saves); RENDR_PAD=0 renders it as it is, RENDR_PAD=1 pads on any.",
+           than it saves): for one frame (go) on AMD Zen 5 and later, where the copy \
+           pays for itself within the frame, for many (turn, view) on any AMD; \
+           RENDR_PAD=0 renders it as it is, RENDR_PAD=1 pads on any.",
     response_files: true,
     opts: go_opts!(
         flag(&["t"], "append a per-pixel time channel (milliseconds)"),
@@ -529,8 +531,8 @@ pub enum Frames {
 /// frame's rays range over many pages (the 256³ bench volume's MIPs on the Intel Xeon:
 /// frames 1.17–1.35× quicker read; bench/RESULTS.md run 58), and a larger volume stays
 /// mapped. `RENDR_MMAP=0` reads and `RENDR_MMAP=1` maps whatever the frames. Rendered
-/// from a copy with padded rows where that pays (`VolumeBuf::render_view`,
-/// `Padding::Auto`), unless the environment says `RENDR_PAD=0` (never) or `RENDR_PAD=1`
+/// from a copy with padded rows where that pays (`VolumeBuf::render_view`;
+/// `Padding::AutoOneFrame` for one frame, `Padding::Auto` for many), unless the environment says `RENDR_PAD=0` (never) or `RENDR_PAD=1`
 /// (on any processor).
 pub fn load_volume(
     path: &Path,
@@ -562,6 +564,7 @@ pub fn load_volume(
     vol.set_padding(match std::env::var_os("RENDR_PAD") {
         Some(v) if v == "0" => Padding::Never,
         Some(v) if v == "1" => Padding::Always,
+        _ if frames == Frames::One => Padding::AutoOneFrame,
         _ => Padding::Auto,
     });
     Ok(vol)

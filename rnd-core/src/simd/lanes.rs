@@ -279,13 +279,8 @@ unsafe fn with_avx512_pair<V: Voxel, K: Kernel<S>, const S: usize, const G: bool
     batches: [LaneBatch<'_, V>; 2],
 ) -> [[[f32; LANES]; 4]; 2] {
     let value = !G || batches[0].value;
-    // The weights are a function of the offsets alone: where the second batch's are the
-    // first's, bit for bit (a ray along an axis, one voxel a step), its weights are too.
-    let same = (0..3).all(|a| {
-        (0..LANES).all(|l| batches[0].al[a][l].to_bits() == batches[1].al[a][l].to_bits())
-    });
     with_weights::<V, K, S, G, _>(batches[0], |sa, wa, dwa| {
-        let sums = |sb: &LaneSupports<'_, V, S>, wb: &LaneWeights<S>, dwb: &LaneWeights<S>| {
+        with_weights::<V, K, S, G, _>(batches[1], |sb, wb, dwb| {
             let (pa, pb) = (placement(sa), placement(sb));
             let (sups, ws, dws) = ([sa, sb], [wa, wb], [dwa, dwb]);
             // (Batches a row or a slice apart are not paired: measured no quicker.)
@@ -314,12 +309,7 @@ unsafe fn with_avx512_pair<V: Voxel, K: Kernel<S>, const S: usize, const G: bool
                     ]
                 },
             }
-        };
-        if same {
-            sums(&batches[1].supports::<S>().0, wa, dwa)
-        } else {
-            with_weights::<V, K, S, G, _>(batches[1], |sb, wb, dwb| sums(sb, wb, dwb))
-        }
+        })
     })
 }
 
