@@ -532,8 +532,8 @@ pub enum Frames {
 /// frames 1.17–1.35× quicker read; bench/RESULTS.md run 58), and a larger volume stays
 /// mapped. `RENDR_MMAP=0` reads and `RENDR_MMAP=1` maps whatever the frames. Rendered
 /// from a copy with padded rows where that pays (`VolumeBuf::render_view`;
-/// `Padding::AutoOneFrame` for one frame, `Padding::Auto` for many), unless the environment says `RENDR_PAD=0` (never) or `RENDR_PAD=1`
-/// (on any processor).
+/// `Padding::AutoOneFrame` for one frame, `Padding::Auto` for many), unless the
+/// environment says `RENDR_PAD=0` (never) or `RENDR_PAD=1` (on any processor).
 pub fn load_volume(
     path: &Path,
     threads: usize,
