@@ -1538,8 +1538,18 @@ impl<A: Arith> March<'_, '_, A> {
     /// when the rays' lines do not follow one model (perspective views) or when the
     /// memory is not there.
     pub(crate) fn aim(&self) -> Option<Aim> {
-        use crate::math::v3::{cross, dot, sub};
         let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
+        let (nf, fine) = g.fine_blocks();
+        let aim = self.aim_model(nf)?;
+        let (firsts, span) = aim.firsts(fine, 0)?;
+        aim.sorted(&firsts, span)
+    }
+
+    /// The model of [`March::aim`] for an opacity grid of `nf` fine blocks per axis,
+    /// before any of its blocks are placed ([`Aim::firsts`], [`Aim::sorted`]): what a
+    /// grid's builders need to place their blocks as they build them.
+    pub(crate) fn aim_model(&self, nf: [usize; 3]) -> Option<Aim> {
+        use crate::math::v3::{cross, dot, sub};
         let sp = self.spec;
         let kend = self.kend();
         let jumps = |hi, vi| Some(self.jumps(&self.a.line(&self.a.ray(hi, vi), kend)?, kend));
@@ -1579,7 +1589,7 @@ impl<A: Arith> March<'_, '_, A> {
                 (clo[r], chi[r]) = (clo[r].min(t), chi[r].max(t));
             }
         }
-        let mut aim = Aim {
+        Some(Aim {
             size: [w, h],
             h: o.h,
             ph,
@@ -1591,49 +1601,11 @@ impl<A: Arith> March<'_, '_, A> {
             kend,
             c,
             wpp,
-            nf: g.fine_blocks().0,
+            nf,
             blocks: Vec::new(),
             starts: Vec::new(),
             span: 0,
-        };
-        // The first row each block reaches (h: none), then the blocks by it.
-        let mut first = Vec::new();
-        let fine = g.fine_blocks().1;
-        first.try_reserve_exact(fine.len()).ok()?;
-        let mut counts = Vec::new();
-        counts.try_reserve_exact(h as usize + 2).ok()?;
-        counts.resize(h as usize + 2, 0u32);
-        for (i, &f) in fine.iter().enumerate() {
-            let reach = if f & FINE_EMPTY == 0 {
-                aim.reach(i)
-            } else {
-                None
-            };
-            let r = match reach {
-                Some(Ok(q)) => q,
-                Some(Err(())) => return None,
-                None => [0, 0, h, h, 0, 0],
-            };
-            aim.span = aim.span.max(r[3] - r[2]);
-            first.push(r[2]);
-            counts[r[2] as usize + 1] += 1;
-        }
-        for r in 1..counts.len() {
-            counts[r] += counts[r - 1];
-        }
-        let total = counts[h as usize] as usize;
-        aim.blocks.try_reserve_exact(total).ok()?;
-        aim.blocks.resize(total, 0);
-        aim.starts.try_reserve_exact(h as usize + 1).ok()?;
-        aim.starts.extend_from_slice(&counts[..h as usize + 1]);
-        for (i, &r) in first.iter().enumerate() {
-            if r < h {
-                let at = &mut counts[r as usize];
-                aim.blocks[*at as usize] = i as u32;
-                *at += 1;
-            }
-        }
-        Some(aim)
+        })
     }
 
     /// Makes the windows of image rows `rows` from the opacity grid's [`Aim`] (none
@@ -1648,14 +1620,103 @@ impl<A: Arith> March<'_, '_, A> {
 }
 
 impl Aim {
+    /// The first image row that each of the fine blocks numbered `at` on (their index in
+    /// the grid; their flags `fine`) reaches, the image's height for none (an empty
+    /// block among them), and the most rows past its first that one of them reaches;
+    /// None when the arithmetic fails or the memory is not there. The blocks of a grid
+    /// may be taken in parts (a part of the grid as it is built) and given to
+    /// [`Aim::sorted`] together.
+    pub(crate) fn firsts(&self, fine: &[u8], at: usize) -> Option<(Vec<u32>, u32)> {
+        let (nf, h) = (self.nf, self.size[1]);
+        let mut out = Vec::new();
+        out.try_reserve_exact(fine.len()).ok()?;
+        let mut span = 0;
+        // (The block's numbers per axis counted along, not divided out of its index.)
+        let plane = nf[0].checked_mul(nf[1]).filter(|&p| p > 0)?;
+        let mut b = [at % nf[0], at / nf[0] % nf[1], at / plane];
+        for &f in fine {
+            let first = match (f & FINE_EMPTY == 0).then(|| self.reach_at(b)).flatten() {
+                Some(Ok(r)) => {
+                    span = span.max(r[3] - r[2]);
+                    r[2]
+                }
+                Some(Err(())) => return None,
+                None => h,
+            };
+            out.push(first);
+            b[0] += 1;
+            if b[0] == nf[0] {
+                b[0] = 0;
+                b[1] += 1;
+                if b[1] == nf[1] {
+                    b[1] = 0;
+                    b[2] += 1;
+                }
+            }
+        }
+        Some((out, span))
+    }
+
+    /// The aim with the grid's blocks placed: `firsts` is [`Aim::firsts`] of every
+    /// block of the grid, in its order, and `span` the largest of the parts' spans.
+    /// None when the memory is not there or `firsts` is not the grid's.
+    pub(crate) fn sorted(mut self, firsts: &[u32], span: u32) -> Option<Aim> {
+        let h = self.size[1];
+        let n = self.nf.iter().try_fold(1usize, |n, &a| n.checked_mul(a))?;
+        if firsts.len() != n || firsts.iter().any(|&r| r > h) {
+            return None;
+        }
+        // The blocks by the first row they reach (a counting sort).
+        let mut counts = Vec::new();
+        counts.try_reserve_exact(h as usize + 2).ok()?;
+        counts.resize(h as usize + 2, 0u32);
+        for &r in firsts {
+            counts[r as usize + 1] += 1;
+        }
+        for r in 1..counts.len() {
+            counts[r] += counts[r - 1];
+        }
+        let total = counts[h as usize] as usize;
+        self.blocks.try_reserve_exact(total).ok()?;
+        self.blocks.resize(total, 0);
+        self.starts.try_reserve_exact(h as usize + 1).ok()?;
+        self.starts.extend_from_slice(&counts[..h as usize + 1]);
+        for (i, &r) in firsts.iter().enumerate() {
+            if r < h {
+                let at = &mut counts[r as usize];
+                self.blocks[*at as usize] = i as u32;
+                *at += 1;
+            }
+        }
+        self.span = span;
+        Some(self)
+    }
+
+    /// The fine blocks per axis of the grid this aims at.
+    pub(crate) fn fine_blocks(&self) -> [usize; 3] {
+        self.nf
+    }
+
+    /// For tests: whether no block is placed.
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
     /// The pixels and samples that fine block `i` (its index in the grid) may reach:
     /// `[h0, h1 + 1, v0, v1 + 1, k0, k1 + 1]`, None when none; an error when the
     /// arithmetic fails (the model gives non-finite numbers).
     fn reach(&self, i: usize) -> Option<Result<[u32; 6], ()>> {
+        let nf = self.nf;
+        self.reach_at([i % nf[0], i / nf[0] % nf[1], i / (nf[0] * nf[1])])
+    }
+
+    /// [`Aim::reach`] of the fine block numbered `b` along each axis.
+    #[inline(always)]
+    fn reach_at(&self, b: [usize; 3]) -> Option<Result<[u32; 6], ()>> {
         use crate::math::v3::dot;
         use crate::math::{ceil, floor};
-        let nf = self.nf;
-        let b = [i % nf[0], i / nf[0] % nf[1], i / (nf[0] * nf[1])].map(|b| b * FINE);
+        let b = b.map(|b| b * FINE);
         let p: [f64; 3] = core::array::from_fn(|a| b[a] as f64 - self.h[a]);
         let t: [f64; 3] = core::array::from_fn(|r| dot(self.inv[r], p));
         if !t.iter().all(|t| t.is_finite()) {

@@ -512,6 +512,25 @@ impl<'a> RenderSpec<'a> {
         grid.set_aim(a);
     }
 
+    /// `plan` (this render's [`RenderSpec::skip_plan`] for `vol` and `K`) aimed at this
+    /// render's camera: the grid it builds comes aimed as [`RenderSpec::aim`] aims it,
+    /// each run of the build placing its own blocks (so several threads building a grid
+    /// share that work too). A plan that is not an opacity plan, or a view the aim does
+    /// not serve, is returned as it is.
+    #[doc(hidden)]
+    pub fn aim_plan<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        vol: Volume<'_, V>,
+        plan: SkipPlan<'a>,
+    ) -> SkipPlan<'a> {
+        if plan.kind() != SkipKind::Opacity {
+            return plan;
+        }
+        let nf = plan.fine_blocks();
+        let model = self.with_march::<V, K, S, _>(vol, None, None, false, |m| m.aim_model(nf));
+        plan.aimed(model)
+    }
+
     /// [`RenderSpec::skip_grid`]'s plan, for building the grid in parts (e.g. on
     /// several threads; the same grid).
     #[doc(hidden)]
@@ -1013,6 +1032,8 @@ trait Cast {
     fn check_reach(&self, hi: u32, vi: u32) -> usize;
     /// [`March::aim`].
     fn aim(&self) -> Option<crate::march::Aim>;
+    /// [`March::aim_model`].
+    fn aim_model(&self, nf: [usize; 3]) -> Option<crate::march::Aim>;
     /// [`March::aim_rows`].
     fn aim_rows(&self, rows: core::ops::Range<u32>);
     /// [`March::bare_reach`].
@@ -1044,6 +1065,9 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     }
     fn aim(&self) -> Option<crate::march::Aim> {
         March::aim(self)
+    }
+    fn aim_model(&self, nf: [usize; 3]) -> Option<crate::march::Aim> {
+        March::aim_model(self, nf)
     }
     fn aim_rows(&self, rows: core::ops::Range<u32>) {
         March::aim_rows(self, rows)
@@ -1414,6 +1438,62 @@ mod tests {
             assert!(each_ray::<Tent, 2>(vol, true, win) > 10_000);
             assert!(each_ray::<Bspln3, 4>(vol, true, win) > 10_000);
         });
+    }
+
+    /// A plan aimed at the camera ([`RenderSpec::aim_plan`]) builds the grid that
+    /// [`RenderSpec::aim`] aims, its aim included, whether built whole or in runs of
+    /// coarse slabs put together in any order; orthographic views get an aim (with
+    /// blocks placed), perspective ones none, both arithmetics alike.
+    #[test]
+    fn aimed_plans_build_the_aimed_grid() {
+        use crate::kernel::Bspln3;
+        let lut = crate::txf::Lut::new(
+            0.0,
+            256.0,
+            (0..8)
+                .map(|i| [1.0, 0.5, 0.2, (i / 3) as f32 * 0.3])
+                .collect(),
+        )
+        .unwrap();
+        let aimed_views = core::cell::Cell::new(0);
+        on_volumes(|vol| {
+            for (reference, ortho) in [(true, true), (true, false), (false, true)] {
+                for from in [[0.0, -40.0, 0.5], [31.0, -17.0, 23.0], [-9.0, 13.0, -35.0]] {
+                    let mut p = RenderParams::new(CameraSpec {
+                        from,
+                        at: [0.3, -0.2, 0.1],
+                        up: [0.0, 0.0, 1.0],
+                        near: -15.0,
+                        far: 15.0,
+                        fov: 40.0,
+                        size: [24, 20],
+                        orthographic: ortho,
+                    });
+                    (p.blend, p.probe, p.reference) = (Blend::Over, Probe::Rgba, reference);
+                    let spec = RenderSpec::new(p, Some(&lut), None, &[]).unwrap();
+                    let plan = spec.skip_plan(&vol, KernelName::Bspln3).unwrap();
+                    let mut want = plan.clone().build(&vol);
+                    spec.aim::<f32, Bspln3, 4>(vol, &mut want);
+                    assert_eq!(want.aim().is_some(), ortho);
+                    if let Some(a) = want.aim() {
+                        assert!(!a.is_empty(), "no block placed");
+                        aimed_views.set(aimed_views.get() + 1);
+                    }
+                    let plan = spec.aim_plan::<f32, Bspln3, 4>(vol, plan);
+                    assert!(plan.clone().build(&vol) == want);
+                    let n = plan.slabs();
+                    for cuts in [&[0, n][..], &[0, 1, n], &[0, n / 2, n - 1, n]] {
+                        let mut runs: Vec<_> = cuts
+                            .windows(2)
+                            .map(|c| plan.build_run(&vol, c[0]..c[1]))
+                            .collect();
+                        runs.reverse();
+                        assert!(plan.finish(runs) == Some(want.clone()), "cuts {cuts:?}");
+                    }
+                }
+            }
+        });
+        assert_eq!(aimed_views.get(), 12);
     }
 
     /// Under `over`, every sample of a stretch that the walk through the fine blocks

@@ -189,7 +189,9 @@ impl Linear {
 /// independently (e.g. on several threads, in any order): [`SkipPlan::build_run`]
 /// fills the grids of one run, and [`SkipPlan::finish`] puts the runs together.
 /// [`SkipPlan::build`] does all of it at once; the result is the same however the slabs
-/// are shared out.
+/// are shared out. An opacity plan aimed at a render's camera
+/// ([`crate::render::RenderSpec::aim_plan`]) builds its grid aimed, each run placing
+/// its own blocks (the aim [`crate::render::RenderSpec::aim`] gives).
 #[derive(Debug, Clone)]
 pub struct SkipPlan<'l> {
     kind: SkipKind,
@@ -199,6 +201,8 @@ pub struct SkipPlan<'l> {
     nb: [usize; 3],
     test: Test<'l>,
     simd: Simd,
+    /// The model the grid is aimed with as it is built (opacity plans only).
+    aim: Option<crate::march::Aim>,
 }
 
 /// How a block's voxel range is judged.
@@ -371,6 +375,9 @@ impl SkipCells {
 pub struct SkipRun {
     slabs: core::ops::Range<usize>,
     cells: SkipCells,
+    /// Under an aimed plan, the first image row each of the run's fine blocks reaches
+    /// and the run's span ([`crate::march::Aim::firsts`]); None when that failed.
+    firsts: Option<(Vec<u32>, u32)>,
 }
 
 /// A plan's whole grids, filled run by run in any order ([`SkipPlan::assembly`],
@@ -382,6 +389,9 @@ pub struct SkipAssembly {
     cells: SkipCells,
     /// Which coarse slabs were put.
     put: Vec<bool>,
+    /// Under an aimed plan, the runs' [`SkipRun::firsts`] in place and the largest
+    /// span, while every run put had them.
+    firsts: Option<(Vec<u32>, u32)>,
 }
 
 impl<'l> SkipPlan<'l> {
@@ -446,6 +456,7 @@ impl<'l> SkipPlan<'l> {
             nb: sizes.map(|n| n.div_ceil(B)),
             test,
             simd: Simd::detect(),
+            aim: None,
         }
     }
 
@@ -454,6 +465,18 @@ impl<'l> SkipPlan<'l> {
     pub fn with_simd(mut self, simd: Simd) -> Self {
         self.simd = simd;
         self
+    }
+
+    /// The plan building its grid aimed by `aim` (made for this plan's fine blocks; an
+    /// opacity plan only, otherwise as before).
+    pub(crate) fn aimed(mut self, aim: Option<crate::march::Aim>) -> Self {
+        self.aim = aim.filter(|a| self.kind == SkipKind::Opacity && a.fine_blocks() == self.nf);
+        self
+    }
+
+    /// Fine blocks per axis of the grid.
+    pub(crate) fn fine_blocks(&self) -> [usize; 3] {
+        self.nf
     }
 
     /// The bounds of every `step`-th fine block along each axis (from the first, fastest
@@ -556,7 +579,15 @@ impl<'l> SkipPlan<'l> {
             #[inline(always)]
             || self.fill_slabs(vol, slabs.clone(), &mut cells)
         });
-        SkipRun { slabs, cells }
+        let firsts = self.aim.as_ref().and_then(|a| {
+            let (at, _) = self.cell_counts(&(0..slabs.start));
+            a.firsts(&cells.fine, at)
+        });
+        SkipRun {
+            slabs,
+            cells,
+            firsts,
+        }
     }
 
     #[inline(always)]
@@ -725,7 +756,7 @@ impl<'l> SkipPlan<'l> {
     /// The whole grid, built on this thread.
     pub fn build<V: Voxel>(self, vol: &Volume<'_, V>) -> SkipGrid {
         let whole = self.build_run(vol, 0..self.slabs());
-        self.grid(whole.cells)
+        self.grid(whole.cells, whole.firsts)
     }
 
     /// The grid from runs of this plan (built from the same volume) in any order; None
@@ -745,9 +776,11 @@ impl<'l> SkipPlan<'l> {
     /// The whole grids of this plan, none of their slabs put yet. Their memory is
     /// handed over cleared (untouched until runs are put in it).
     pub fn assembly(&self) -> SkipAssembly {
+        let (fine, _) = self.cell_counts(&(0..self.slabs()));
         SkipAssembly {
             cells: self.outputs(&(0..self.slabs())),
             put: alloc::vec![false; self.slabs()],
+            firsts: self.aim.as_ref().map(|_| (alloc::vec![0; fine], 0)),
         }
     }
 
@@ -776,6 +809,14 @@ impl<'l> SkipPlan<'l> {
         copy(&mut w.hi, f0, &r.hi);
         copy(&mut w.empty, c0, &r.empty);
         copy(&mut w.coarse_hi, c0, &r.coarse_hi);
+        // (A run without its blocks' rows leaves the grid unaimed.)
+        whole.firsts = match (whole.firsts.take(), run.firsts) {
+            (Some((mut all, span)), Some((part, s))) if part.len() == r.fine.len() => {
+                copy(&mut all, f0, &part);
+                Some((all, span.max(s)))
+            }
+            _ => None,
+        };
         whole.put[s].fill(true);
         true
     }
@@ -785,11 +826,16 @@ impl<'l> SkipPlan<'l> {
         (whole.put.len() == self.slabs()
             && !whole.put.contains(&false)
             && whole.cells.lens() == self.lens(&(0..self.slabs())))
-        .then(|| self.grid(whole.cells))
+        .then(|| self.grid(whole.cells, whole.firsts))
     }
 
-    /// The grid of `cells`, all slabs' grids.
-    fn grid(&self, cells: SkipCells) -> SkipGrid {
+    /// The grid of `cells`, all slabs' grids, aimed by this plan's aim with `firsts`,
+    /// every block's first row ([`crate::march::Aim::sorted`]).
+    fn grid(&self, cells: SkipCells, firsts: Option<(Vec<u32>, u32)>) -> SkipGrid {
+        let aim = match (&self.aim, firsts) {
+            (Some(a), Some((f, span))) => a.clone().sorted(&f, span),
+            _ => None,
+        };
         SkipGrid {
             kind: self.kind,
             kernel: self.kernel,
@@ -801,7 +847,7 @@ impl<'l> SkipPlan<'l> {
             empty: cells.empty,
             hi: cells.hi,
             coarse_hi: cells.coarse_hi,
-            aim: None,
+            aim,
             made: self.made(),
         }
     }

@@ -313,19 +313,20 @@ fn render_kept(
                     spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
                 })
             });
-            let aim = |g: &mut SkipGrid| spec.aim::<V, K, S>(vol, g);
-            // The grid: the one kept, or one built first on one thread, or by the render's
-            // own workers as they start (see `GridWork`).
+            // The grid: the one kept (aimed here at this render's camera), or one built
+            // aimed (each run of the build placing its blocks) first on one thread, or by
+            // the render's own workers as they start (see `GridWork`).
             let (mut ready, mut work) = (None, None);
             if let Some(plan) = plan {
+                let aimed = |p| spec.aim_plan::<V, K, S>(vol, p);
                 match self.kept.and_then(|k| k.take(&plan)) {
-                    Some(g) => ready = Some(g),
-                    None if self.threads <= 1 => ready = Some(plan.build(&vol)),
-                    None => work = Some(GridWork::new(plan, &vol, self.threads)),
+                    Some(mut g) => {
+                        spec.aim::<V, K, S>(vol, &mut g);
+                        ready = Some(g);
+                    }
+                    None if self.threads <= 1 => ready = Some(aimed(plan).build(&vol)),
+                    None => work = Some(GridWork::new(aimed(plan), &vol, self.threads)),
                 }
-            }
-            if let Some(g) = &mut ready {
-                aim(g);
             }
             let mut none: [(); 0] = [];
             let w_ch = w * ch;
@@ -339,7 +340,7 @@ fn render_kept(
                     let clock = clock_ref.map(|c| c as &dyn Fn() -> f64);
                     let grid = || ready.as_ref().or_else(|| work.as_ref()?.grid());
                     if let Some(w) = &work {
-                        w.help(&aim);
+                        w.help();
                         // Until another worker has put the grid together: a row at a
                         // time without it (slower, the same bits), then the rest with it.
                         while grid().is_none() && !rows.is_empty() {
@@ -657,7 +658,7 @@ pub fn build_skip_grid<V: Voxel>(
     let work = GridWork::new(plan, vol, threads);
     std::thread::scope(|s| {
         for _ in 0..threads.min(work.runs) {
-            s.spawn(|| work.help(&|_| ()));
+            s.spawn(|| work.help());
         }
     });
     // (Every run is built once the workers are done, so the grid is there; were it not,
@@ -703,9 +704,9 @@ impl<'p, 'v, 'd, V: Voxel> GridWork<'p, 'v, 'd, V> {
     }
 
     /// Builds runs until none is left to take, putting each into the whole grid; the
-    /// worker that puts the last has the grid and hands it to `aim` before anyone may
-    /// use it.
-    fn help(&self, aim: &(dyn Fn(&mut SkipGrid) + Sync)) {
+    /// worker that puts the last puts the grid together (aimed, when the plan is) for
+    /// everyone.
+    fn help(&self) {
         while let Some(r) = self.todo.lock().ok().and_then(|mut q| q.pop()) {
             let run = self.plan.build_run(self.vol, r);
             let Ok(mut done) = self.done.lock() else {
@@ -720,8 +721,7 @@ impl<'p, 'v, 'd, V: Voxel> GridWork<'p, 'v, 'd, V> {
             if *n == self.runs {
                 let whole = std::mem::take(whole);
                 drop(done);
-                if let Some(mut g) = self.plan.assemble(whole) {
-                    aim(&mut g);
+                if let Some(g) = self.plan.assemble(whole) {
                     let _ = self.grid.set(g);
                 }
             }
@@ -865,11 +865,10 @@ mod tests {
         }
     }
 
-    /// Workers helping with a grid at once put it together once, aimed once, the grid one
-    /// thread builds; before any helps there is none.
+    /// Workers helping with a grid at once put it together, the grid one thread builds;
+    /// before any helps there is none.
     #[test]
     fn grid_work_is_put_together_once() {
-        use std::sync::atomic::{AtomicUsize, Ordering};
         let sizes = [19, 23, 70];
         let data: Vec<f32> = (0..sizes.iter().product::<usize>())
             .map(|i| ((i * 7919) % 97) as f32)
@@ -881,16 +880,11 @@ mod tests {
         for t in [1, 2, 3, 8] {
             let work = super::GridWork::new(plan.clone(), &vol, t);
             assert!(work.grid().is_none());
-            let aimed = AtomicUsize::new(0);
-            let aim = |_: &mut SkipGrid| {
-                aimed.fetch_add(1, Ordering::Relaxed);
-            };
             std::thread::scope(|s| {
                 for _ in 0..t {
-                    s.spawn(|| work.help(&aim));
+                    s.spawn(|| work.help());
                 }
             });
-            assert_eq!(aimed.into_inner(), 1, "{t} workers");
             assert!(work.grid() == Some(&one), "{t} workers");
             assert!(work.into_grid() == Some(one.clone()));
         }
