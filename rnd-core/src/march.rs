@@ -1542,7 +1542,7 @@ impl<A: Arith> March<'_, '_, A> {
         let (nf, fine) = g.fine_blocks();
         let aim = self.aim_model(nf)?;
         let (firsts, span) = aim.firsts(fine, 0)?;
-        aim.sorted(&firsts, span)
+        aim.sorted(&[&firsts], span)
     }
 
     /// The model of [`March::aim`] for an opacity grid of `nf` fine blocks per axis,
@@ -1620,30 +1620,30 @@ impl<A: Arith> March<'_, '_, A> {
 }
 
 impl Aim {
-    /// The first image row that each of the fine blocks numbered `at` on (their index in
-    /// the grid; their flags `fine`) reaches, the image's height for none (an empty
-    /// block among them), and the most rows past its first that one of them reaches;
-    /// None when the arithmetic fails or the memory is not there. The blocks of a grid
-    /// may be taken in parts (a part of the grid as it is built) and given to
-    /// [`Aim::sorted`] together.
-    pub(crate) fn firsts(&self, fine: &[u8], at: usize) -> Option<(Vec<u32>, u32)> {
-        let (nf, h) = (self.nf, self.size[1]);
+    /// The fine blocks numbered `at` on (their index in the grid; their flags `fine`)
+    /// that reach some pixel, in order, each with the first image row it reaches, and
+    /// the most rows past its first that one of them reaches; None when the arithmetic
+    /// fails or the memory is not there. A grid's blocks may be taken in parts (as its
+    /// build makes them) and given to [`Aim::sorted`] together.
+    pub(crate) fn firsts(&self, fine: &[u8], at: usize) -> Option<(Vec<(u32, u32)>, u32)> {
+        let nf = self.nf;
         let mut out = Vec::new();
-        out.try_reserve_exact(fine.len()).ok()?;
         let mut span = 0;
         // (The block's numbers per axis counted along, not divided out of its index.)
         let plane = nf[0].checked_mul(nf[1]).filter(|&p| p > 0)?;
         let mut b = [at % nf[0], at / nf[0] % nf[1], at / plane];
-        for &f in fine {
-            let first = match (f & FINE_EMPTY == 0).then(|| self.reach_at(b)).flatten() {
-                Some(Ok(r)) => {
-                    span = span.max(r[3] - r[2]);
-                    r[2]
+        for (i, &f) in fine.iter().enumerate() {
+            if f & FINE_EMPTY == 0 {
+                match self.reach_at(b) {
+                    Some(Ok(r)) => {
+                        span = span.max(r[3] - r[2]);
+                        out.try_reserve(1).ok()?;
+                        out.push((u32::try_from(at + i).ok()?, r[2]));
+                    }
+                    Some(Err(())) => return None,
+                    None => {}
                 }
-                Some(Err(())) => return None,
-                None => h,
-            };
-            out.push(first);
+            }
             b[0] += 1;
             if b[0] == nf[0] {
                 b[0] = 0;
@@ -1657,20 +1657,21 @@ impl Aim {
         Some((out, span))
     }
 
-    /// The aim with the grid's blocks placed: `firsts` is [`Aim::firsts`] of every
-    /// block of the grid, in its order, and `span` the largest of the parts' spans.
-    /// None when the memory is not there or `firsts` is not the grid's.
-    pub(crate) fn sorted(mut self, firsts: &[u32], span: u32) -> Option<Aim> {
+    /// The aim with the grid's blocks placed: `parts` are [`Aim::firsts`] of every part
+    /// of the grid that has blocks reaching a pixel, in the grid's order, and `span` the
+    /// largest of their spans. None when the memory is not there or a part names a
+    /// block or row outside the grid and image.
+    pub(crate) fn sorted(mut self, parts: &[&[(u32, u32)]], span: u32) -> Option<Aim> {
         let h = self.size[1];
         let n = self.nf.iter().try_fold(1usize, |n, &a| n.checked_mul(a))?;
-        if firsts.len() != n || firsts.iter().any(|&r| r > h) {
-            return None;
-        }
-        // The blocks by the first row they reach (a counting sort).
+        // The blocks by the first row they reach (a counting sort, stable).
         let mut counts = Vec::new();
-        counts.try_reserve_exact(h as usize + 2).ok()?;
-        counts.resize(h as usize + 2, 0u32);
-        for &r in firsts {
+        counts.try_reserve_exact(h as usize + 1).ok()?;
+        counts.resize(h as usize + 1, 0u32);
+        for &(i, r) in parts.iter().flat_map(|p| p.iter()) {
+            if i as usize >= n || r >= h {
+                return None;
+            }
             counts[r as usize + 1] += 1;
         }
         for r in 1..counts.len() {
@@ -1681,12 +1682,10 @@ impl Aim {
         self.blocks.resize(total, 0);
         self.starts.try_reserve_exact(h as usize + 1).ok()?;
         self.starts.extend_from_slice(&counts[..h as usize + 1]);
-        for (i, &r) in firsts.iter().enumerate() {
-            if r < h {
-                let at = &mut counts[r as usize];
-                self.blocks[*at as usize] = i as u32;
-                *at += 1;
-            }
+        for &(i, r) in parts.iter().flat_map(|p| p.iter()) {
+            let at = &mut counts[r as usize];
+            self.blocks[*at as usize] = i;
+            *at += 1;
         }
         self.span = span;
         Some(self)

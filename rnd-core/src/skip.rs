@@ -375,10 +375,15 @@ impl SkipCells {
 pub struct SkipRun {
     slabs: core::ops::Range<usize>,
     cells: SkipCells,
-    /// Under an aimed plan, the first image row each of the run's fine blocks reaches
-    /// and the run's span ([`crate::march::Aim::firsts`]); None when that failed.
-    firsts: Option<(Vec<u32>, u32)>,
+    /// Under an aimed plan, the run's fine blocks that reach a pixel with the first
+    /// image row each reaches, and the run's span ([`crate::march::Aim::firsts`]); None
+    /// when that failed.
+    firsts: Option<(Vec<(u32, u32)>, u32)>,
 }
+
+/// A run's first slab and its blocks that reach a pixel, with the first row each
+/// reaches ([`crate::march::Aim::firsts`]).
+type Placed = (usize, Vec<(u32, u32)>);
 
 /// A plan's whole grids, filled run by run in any order ([`SkipPlan::assembly`],
 /// [`SkipPlan::put`]): each run is copied into place when it is put (by the thread that
@@ -389,9 +394,9 @@ pub struct SkipAssembly {
     cells: SkipCells,
     /// Which coarse slabs were put.
     put: Vec<bool>,
-    /// Under an aimed plan, the runs' [`SkipRun::firsts`] in place and the largest
-    /// span, while every run put had them.
-    firsts: Option<(Vec<u32>, u32)>,
+    /// Under an aimed plan, the runs' [`SkipRun::firsts`] (by their first slab) and the
+    /// largest span, while every run put had them.
+    firsts: Option<(Vec<Placed>, u32)>,
 }
 
 impl<'l> SkipPlan<'l> {
@@ -756,7 +761,8 @@ impl<'l> SkipPlan<'l> {
     /// The whole grid, built on this thread.
     pub fn build<V: Voxel>(self, vol: &Volume<'_, V>) -> SkipGrid {
         let whole = self.build_run(vol, 0..self.slabs());
-        self.grid(whole.cells, whole.firsts)
+        let firsts = whole.firsts.map(|(f, span)| (alloc::vec![(0, f)], span));
+        self.grid(whole.cells, firsts)
     }
 
     /// The grid from runs of this plan (built from the same volume) in any order; None
@@ -776,11 +782,10 @@ impl<'l> SkipPlan<'l> {
     /// The whole grids of this plan, none of their slabs put yet. Their memory is
     /// handed over cleared (untouched until runs are put in it).
     pub fn assembly(&self) -> SkipAssembly {
-        let (fine, _) = self.cell_counts(&(0..self.slabs()));
         SkipAssembly {
             cells: self.outputs(&(0..self.slabs())),
             put: alloc::vec![false; self.slabs()],
-            firsts: self.aim.as_ref().map(|_| (alloc::vec![0; fine], 0)),
+            firsts: self.aim.as_ref().map(|_| (Vec::new(), 0)),
         }
     }
 
@@ -811,10 +816,10 @@ impl<'l> SkipPlan<'l> {
         copy(&mut w.coarse_hi, c0, &r.coarse_hi);
         // (A run without its blocks' rows leaves the grid unaimed.)
         whole.firsts = match (whole.firsts.take(), run.firsts) {
-            (Some((mut all, span)), Some((part, s))) if part.len() == r.fine.len() => {
-                copy(&mut all, f0, &part);
-                Some((all, span.max(s)))
-            }
+            (Some((mut parts, span)), Some((part, sp))) => parts.try_reserve(1).ok().map(|()| {
+                parts.push((s.start, part));
+                (parts, span.max(sp))
+            }),
             _ => None,
         };
         whole.put[s].fill(true);
@@ -826,14 +831,23 @@ impl<'l> SkipPlan<'l> {
         (whole.put.len() == self.slabs()
             && !whole.put.contains(&false)
             && whole.cells.lens() == self.lens(&(0..self.slabs())))
-        .then(|| self.grid(whole.cells, whole.firsts))
+        .then(|| {
+            let firsts = whole.firsts.map(|(mut parts, span)| {
+                parts.sort_unstable_by_key(|p| p.0);
+                (parts, span)
+            });
+            self.grid(whole.cells, firsts)
+        })
     }
 
     /// The grid of `cells`, all slabs' grids, aimed by this plan's aim with `firsts`,
     /// every block's first row ([`crate::march::Aim::sorted`]).
-    fn grid(&self, cells: SkipCells, firsts: Option<(Vec<u32>, u32)>) -> SkipGrid {
+    fn grid(&self, cells: SkipCells, firsts: Option<(Vec<Placed>, u32)>) -> SkipGrid {
         let aim = match (&self.aim, firsts) {
-            (Some(a), Some((f, span))) => a.clone().sorted(&f, span),
+            (Some(a), Some((parts, span))) => {
+                let parts: Vec<&[(u32, u32)]> = parts.iter().map(|p| &p.1[..]).collect();
+                a.clone().sorted(&parts, span)
+            }
             _ => None,
         };
         SkipGrid {

@@ -517,9 +517,9 @@ pub fn render_part_with(
 }
 
 /// Runs `band` over the rows of an image of `h` rows whose `out` holds `per_row` items a
-/// row and `aux` `aux_per_row` (0: `aux` may be empty), on `threads` threads (with one, the
-/// calling thread takes them all in order), reporting progress to `control`; stops when
-/// it is cancelled or a call returns false. Returns the rows done.
+/// row and `aux` `aux_per_row` (0: `aux` may be empty), on `threads` threads, the calling
+/// thread one of them (with one, it takes them all in order), reporting progress to
+/// `control`; stops when it is cancelled or a call returns false. Returns the rows done.
 ///
 /// Each thread owns a contiguous run of the rows and works down it [`BAND`] rows at a
 /// time, so that its next rows lie beside its last and find the volume's voxels they
@@ -615,10 +615,11 @@ fn bands<T: Send, U: Send>(
         work(0);
     } else {
         std::thread::scope(|s| {
-            for me in 0..t {
+            for me in 1..t {
                 let work = &work;
                 s.spawn(move || work(me));
             }
+            work(0);
         });
     }
     done.load(Ordering::Relaxed)
