@@ -209,9 +209,11 @@ pub(crate) struct Windows<'m> {
 /// What each band of a render makes its [`Windows`] from: the model of the rays' lines,
 /// the range of (hi, vi, k) a block's corners span about its first support start, and
 /// the opacity grid's fine blocks that are not empty, by the first image row they may
-/// reach ([`March::aim`]). Made once a render, on one thread; the windows band by band,
-/// on the band's thread, in a small buffer (a whole image's windows took a millisecond
-/// or more of fresh memory on one thread, bench/RESULTS.md run 59).
+/// reach ([`March::aim`]). Made once a render: the model first ([`March::aim_model`]),
+/// then the blocks placed part by part ([`Aim::firsts`], by the runs that build the
+/// grid, on their threads) and sorted ([`Aim::sorted`]); the windows band by band, on
+/// the band's thread, in a small buffer (a whole image's windows took a millisecond or
+/// more of fresh memory on one thread, bench/RESULTS.md run 59).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Aim {
     size: [u32; 2],
