@@ -1326,15 +1326,37 @@ mod tests {
         over: bool,
         f: impl Fn(&dyn Cast, u32, u32) -> usize,
     ) -> usize {
-        let lut = crate::txf::Lut::new(
+        let lut = test_lut();
+        let mut sum = 0;
+        for (_, spec) in test_specs(over, &lut) {
+            let g = spec.skip_grid(&vol, K::NAME).unwrap();
+            sum += spec.with_march::<f32, K, S, usize>(vol, Some(&g), None, false, |m| {
+                (0..20)
+                    .flat_map(|vi| (0..24).map(move |hi| (hi, vi)))
+                    .map(|(hi, vi)| f(m, hi, vi))
+                    .sum()
+            });
+        }
+        sum
+    }
+
+    /// The LUT of the `over` renders of [`test_specs`]: 0 opacity below 96, more above.
+    fn test_lut() -> crate::txf::Lut {
+        crate::txf::Lut::new(
             0.0,
             256.0,
             (0..8)
                 .map(|i| [1.0, 0.5, 0.2, (i / 3) as f32 * 0.3])
                 .collect(),
         )
-        .unwrap();
-        let mut sum = 0;
+        .unwrap()
+    }
+
+    /// 24 × 20 renders, each with whether its camera is orthographic: both arithmetics,
+    /// orthographic and perspective, from three sides; `over` of the colour from `lut`
+    /// or `max` of the value.
+    fn test_specs(over: bool, lut: &crate::txf::Lut) -> Vec<(bool, RenderSpec<'_>)> {
+        let mut out = Vec::new();
         for (reference, ortho) in [(true, true), (true, false), (false, true), (false, false)] {
             for from in [[0.0, -40.0, 0.5], [31.0, -17.0, 23.0], [-9.0, 13.0, -35.0]] {
                 let mut p = RenderParams::new(CameraSpec {
@@ -1354,17 +1376,13 @@ mod tests {
                 };
                 p.reference = reference;
                 p.plane_sep = 0.37;
-                let spec = RenderSpec::new(p, over.then_some(&lut), None, &[]).unwrap();
-                let g = spec.skip_grid(&vol, K::NAME).unwrap();
-                sum += spec.with_march::<f32, K, S, usize>(vol, Some(&g), None, false, |m| {
-                    (0..20)
-                        .flat_map(|vi| (0..24).map(move |hi| (hi, vi)))
-                        .map(|(hi, vi)| f(m, hi, vi))
-                        .sum()
-                });
+                out.push((
+                    ortho,
+                    RenderSpec::new(p, over.then_some(lut), None, &[]).unwrap(),
+                ));
             }
         }
-        sum
+        out
     }
 
     /// A volume of 21 × 18 × 23 values in 0 .. 257, whole and held from grid index
@@ -1447,49 +1465,28 @@ mod tests {
     #[test]
     fn aimed_plans_build_the_aimed_grid() {
         use crate::kernel::Bspln3;
-        let lut = crate::txf::Lut::new(
-            0.0,
-            256.0,
-            (0..8)
-                .map(|i| [1.0, 0.5, 0.2, (i / 3) as f32 * 0.3])
-                .collect(),
-        )
-        .unwrap();
+        let lut = test_lut();
         let aimed_views = core::cell::Cell::new(0);
         on_volumes(|vol| {
-            for (reference, ortho) in [(true, true), (true, false), (false, true)] {
-                for from in [[0.0, -40.0, 0.5], [31.0, -17.0, 23.0], [-9.0, 13.0, -35.0]] {
-                    let mut p = RenderParams::new(CameraSpec {
-                        from,
-                        at: [0.3, -0.2, 0.1],
-                        up: [0.0, 0.0, 1.0],
-                        near: -15.0,
-                        far: 15.0,
-                        fov: 40.0,
-                        size: [24, 20],
-                        orthographic: ortho,
-                    });
-                    (p.blend, p.probe, p.reference) = (Blend::Over, Probe::Rgba, reference);
-                    let spec = RenderSpec::new(p, Some(&lut), None, &[]).unwrap();
-                    let plan = spec.skip_plan(&vol, KernelName::Bspln3).unwrap();
-                    let mut want = plan.clone().build(&vol);
-                    spec.aim::<f32, Bspln3, 4>(vol, &mut want);
-                    assert_eq!(want.aim().is_some(), ortho);
-                    if let Some(a) = want.aim() {
-                        assert!(!a.is_empty(), "no block placed");
-                        aimed_views.set(aimed_views.get() + 1);
-                    }
-                    let plan = spec.aim_plan::<f32, Bspln3, 4>(vol, plan);
-                    assert!(plan.clone().build(&vol) == want);
-                    let n = plan.slabs();
-                    for cuts in [&[0, n][..], &[0, 1, n], &[0, n / 2, n - 1, n]] {
-                        let mut runs: Vec<_> = cuts
-                            .windows(2)
-                            .map(|c| plan.build_run(&vol, c[0]..c[1]))
-                            .collect();
-                        runs.reverse();
-                        assert!(plan.finish(runs) == Some(want.clone()), "cuts {cuts:?}");
-                    }
+            for (ortho, spec) in test_specs(true, &lut) {
+                let plan = spec.skip_plan(&vol, KernelName::Bspln3).unwrap();
+                let mut want = plan.clone().build(&vol);
+                spec.aim::<f32, Bspln3, 4>(vol, &mut want);
+                assert_eq!(want.aim().is_some(), ortho);
+                if let Some(a) = want.aim() {
+                    assert!(!a.is_empty(), "no block placed");
+                    aimed_views.set(aimed_views.get() + 1);
+                }
+                let plan = spec.aim_plan::<f32, Bspln3, 4>(vol, plan);
+                assert!(plan.clone().build(&vol) == want);
+                let n = plan.slabs();
+                for cuts in [&[0, n][..], &[0, 1, n], &[0, n / 2, n - 1, n]] {
+                    let mut runs: Vec<_> = cuts
+                        .windows(2)
+                        .map(|c| plan.build_run(&vol, c[0]..c[1]))
+                        .collect();
+                    runs.reverse();
+                    assert!(plan.finish(runs) == Some(want.clone()), "cuts {cuts:?}");
                 }
             }
         });
