@@ -1541,10 +1541,17 @@ impl<A: Arith> March<'_, '_, A> {
     /// memory is not there.
     pub(crate) fn aim(&self) -> Option<Aim> {
         let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
-        let (nf, fine) = g.fine_blocks();
-        let aim = self.aim_model(nf)?;
-        let (firsts, span) = aim.firsts(fine, 0)?;
+        let aim = self.aim_model(g.fine_blocks().0)?;
+        let (firsts, span) = aim.firsts(g.fine_blocks().1, 0)?;
         aim.sorted(&[&firsts], span)
+    }
+
+    /// The model of [`March::aim`] for this render's opacity grid, before its blocks are
+    /// placed (a grid kept from another render, aimed anew in parts: [`crate::skip::ReAim`]);
+    /// None as there.
+    pub(crate) fn grid_model(&self) -> Option<Aim> {
+        let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
+        self.aim_model(g.fine_blocks().0)
     }
 
     /// The model of [`March::aim`] for an opacity grid of `nf` fine blocks per axis,

@@ -16,7 +16,7 @@ use crate::march::{March, Out};
 use crate::probe::Probe;
 use crate::refarith::{self, RefCamera};
 use crate::simd::Simd;
-use crate::skip::{SkipGrid, SkipKind, SkipPlan};
+use crate::skip::{ReAim, SkipGrid, SkipKind, SkipPlan};
 use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
@@ -510,6 +510,20 @@ impl<'a> RenderSpec<'a> {
     ) {
         let a = self.with_march::<V, K, S, _>(vol, Some(&*grid), None, false, |m| m.aim());
         grid.set_aim(a);
+    }
+
+    /// [`RenderSpec::aim`] in parts, for several threads: the aim's model for `grid` (a
+    /// grid of this render's kind made from `vol`, e.g. kept from another render), whose
+    /// [`ReAim::part`]s of its fine blocks [`ReAim::finish`] puts together into the aim
+    /// [`RenderSpec::aim`] gives.
+    #[doc(hidden)]
+    pub fn re_aim<V: Voxel, K: Kernel<S>, const S: usize>(
+        &self,
+        vol: Volume<'_, V>,
+        grid: &SkipGrid,
+    ) -> ReAim {
+        let model = self.with_march::<V, K, S, _>(vol, Some(grid), None, false, |m| m.grid_model());
+        ReAim::new(model, grid)
     }
 
     /// `plan` (this render's [`RenderSpec::skip_plan`] for `vol` and `K`) aimed at this
@@ -1034,6 +1048,8 @@ trait Cast {
     fn aim(&self) -> Option<crate::march::Aim>;
     /// [`March::aim_model`].
     fn aim_model(&self, nf: [usize; 3]) -> Option<crate::march::Aim>;
+    /// [`March::grid_model`].
+    fn grid_model(&self) -> Option<crate::march::Aim>;
     /// [`March::aim_rows`].
     fn aim_rows(&self, rows: core::ops::Range<u32>);
     /// [`March::bare_reach`].
@@ -1068,6 +1084,9 @@ impl<A: crate::arith::Arith> Cast for March<'_, '_, A> {
     }
     fn aim_model(&self, nf: [usize; 3]) -> Option<crate::march::Aim> {
         March::aim_model(self, nf)
+    }
+    fn grid_model(&self) -> Option<crate::march::Aim> {
+        March::grid_model(self)
     }
     fn aim_rows(&self, rows: core::ops::Range<u32>) {
         March::aim_rows(self, rows)
@@ -1488,6 +1507,52 @@ mod tests {
                     runs.reverse();
                     assert!(plan.finish(runs) == Some(want.clone()), "cuts {cuts:?}");
                 }
+            }
+        });
+        assert_eq!(aimed_views.get(), 12);
+    }
+
+    /// A grid aimed anew in parts ([`RenderSpec::re_aim`]), cut anywhere and put in any
+    /// order, is aimed as [`RenderSpec::aim`] aims it, whatever it was aimed at before;
+    /// parts that leave a block out leave it unaimed.
+    #[test]
+    fn grids_aimed_in_parts_are_aimed_whole() {
+        use crate::kernel::Bspln3;
+        let lut = test_lut();
+        let aimed_views = core::cell::Cell::new(0);
+        on_volumes(|vol| {
+            let specs = test_specs(true, &lut);
+            for (i, (_, spec)) in specs.iter().enumerate() {
+                let plan = spec.skip_plan(&vol, KernelName::Bspln3).unwrap();
+                let mut want = plan.build(&vol);
+                spec.aim::<f32, Bspln3, 4>(vol, &mut want);
+                // Kept from the view before (aimed at it, or not aimed).
+                let (_, before) = &specs[(i + specs.len() - 1) % specs.len()];
+                let mut kept = want.clone();
+                before.aim::<f32, Bspln3, 4>(vol, &mut kept);
+                let re = spec.re_aim::<f32, Bspln3, 4>(vol, &kept);
+                let n = re.blocks();
+                assert_eq!(n > 0, want.aim().is_some());
+                if n == 0 {
+                    re.finish(&mut kept, Vec::new());
+                    assert!(kept == want);
+                    continue;
+                }
+                aimed_views.set(aimed_views.get() + 1);
+                for cuts in [&[0, n][..], &[0, 1, n], &[0, n / 3, n / 2, n - 1, n]] {
+                    let mut parts: Vec<_> = cuts.windows(2).map(|c| re.part(c[0]..c[1])).collect();
+                    parts.reverse();
+                    let mut got = kept.clone();
+                    re.finish(&mut got, parts);
+                    assert!(got == want, "cuts {cuts:?}");
+                }
+                // A block left out: no aim.
+                let mut got = kept.clone();
+                re.finish(
+                    &mut got,
+                    alloc::vec![re.part(0..n / 2), re.part(n / 2 + 1..n)],
+                );
+                assert!(got.aim().is_none());
             }
         });
         assert_eq!(aimed_views.get(), 12);

@@ -892,6 +892,86 @@ impl<'l> SkipPlan<'l> {
     }
 }
 
+/// A grid's aim made anew for another render's camera in parts, e.g. by several threads
+/// ([`crate::render::RenderSpec::re_aim`]): [`ReAim::part`] of runs of its fine blocks,
+/// in any order and on any thread, then [`ReAim::finish`]; the same aim as
+/// [`crate::render::RenderSpec::aim`] makes on one thread.
+#[doc(hidden)]
+#[derive(Debug)]
+pub struct ReAim {
+    /// The aim's model for the camera, None when the grid takes no aim (not an opacity
+    /// grid, a view the aim does not serve, or no memory).
+    model: Option<crate::march::Aim>,
+    /// The grid's fine-block flags (a copy: the parts read them while the grid waits to
+    /// be aimed).
+    fine: Vec<u8>,
+}
+
+/// One run of a [`ReAim`]'s fine blocks: its range, and its blocks that reach a pixel
+/// with the first row each reaches (None when the arithmetic failed).
+#[doc(hidden)]
+#[derive(Debug)]
+pub struct AimPart {
+    blocks: core::ops::Range<usize>,
+    firsts: Option<(Vec<(u32, u32)>, u32)>,
+}
+
+impl ReAim {
+    pub(crate) fn new(model: Option<crate::march::Aim>, grid: &SkipGrid) -> ReAim {
+        let mut fine = Vec::new();
+        let model = model.filter(|m| {
+            m.fine_blocks() == grid.nf && fine.try_reserve_exact(grid.fine.len()).is_ok()
+        });
+        if model.is_some() {
+            fine.extend_from_slice(&grid.fine);
+        }
+        ReAim { model, fine }
+    }
+
+    /// The fine blocks to place: parts cover `0 .. blocks()` (0: no aim to make; then
+    /// [`ReAim::finish`] with no parts leaves the grid unaimed).
+    pub fn blocks(&self) -> usize {
+        if self.model.is_some() {
+            self.fine.len()
+        } else {
+            0
+        }
+    }
+
+    /// The part of fine blocks `blocks` (a range within `0 .. self.blocks()`).
+    pub fn part(&self, blocks: core::ops::Range<usize>) -> AimPart {
+        let firsts = self
+            .model
+            .as_ref()
+            .zip(self.fine.get(blocks.clone()))
+            .and_then(|(m, fine)| m.firsts(fine, blocks.start));
+        AimPart { blocks, firsts }
+    }
+
+    /// Aims `grid` (the grid this was made for) with `parts`, in any order: the aim
+    /// [`crate::render::RenderSpec::aim`] gives when they cover every block once; else
+    /// none (the images are the same bits either way, made more slowly).
+    pub fn finish(&self, grid: &mut SkipGrid, mut parts: Vec<AimPart>) {
+        parts.sort_unstable_by_key(|p| p.blocks.start);
+        let aim = (|| {
+            let model = self.model.clone().filter(|m| m.fine_blocks() == grid.nf)?;
+            let mut end = 0;
+            let mut span = 0;
+            let mut lists = Vec::new();
+            lists.try_reserve_exact(parts.len()).ok()?;
+            for p in &parts {
+                let (firsts, sp) = p.firsts.as_ref().filter(|_| p.blocks.start == end)?;
+                end = p.blocks.end;
+                span = span.max(*sp);
+                lists.push(&firsts[..]);
+            }
+            (end == self.fine.len() && end == grid.fine.len())
+                .then(|| model.sorted(&lists, span))?
+        })();
+        grid.set_aim(aim);
+    }
+}
+
 /// [`SkipGrid::starts`] of fine block `fb` (block numbers per axis) of a volume of
 /// `sizes` voxels `data` (rows `row` samples apart) reconstructed with a kernel of
 /// support `s`: set for each support start in the block whose whole support is inside

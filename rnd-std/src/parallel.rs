@@ -11,7 +11,7 @@ use std::time::Instant;
 use rnd_core::brick::{Own, Partial};
 use rnd_core::kernel::{Kernel, KernelName};
 use rnd_core::render::{dispatch, AnyVolume, ConvoTask, RenderSpec};
-use rnd_core::skip::{SkipGrid, SkipKind, SkipPlan};
+use rnd_core::skip::{AimPart, ReAim, SkipGrid, SkipKind, SkipPlan};
 use rnd_core::volume::Volume;
 use rnd_core::voxel::Voxel;
 use rnd_core::Param;
@@ -313,16 +313,26 @@ fn render_kept(
                     spec.skip_pays(vol.into(), K::NAME, &|rays| on_threads(rays, self.threads))
                 })
             });
-            // The grid: the one kept (aimed here at this render's camera), or one built
+            // The grid: the one kept, aimed at this render's camera (on one thread, or
+            // by the render's own workers as they start: see `GridWork`), or one built
             // aimed (each run of the build placing its blocks) first on one thread, or by
-            // the render's own workers as they start (see `GridWork`).
+            // the render's own workers as they start.
             let (mut ready, mut work) = (None, None);
             if let Some(plan) = plan {
                 let aimed = |p| spec.aim_plan::<V, K, S>(vol, p);
                 match self.kept.and_then(|k| k.take(&plan)) {
-                    Some(mut g) => {
+                    Some(mut g) if self.threads <= 1 => {
                         spec.aim::<V, K, S>(vol, &mut g);
                         ready = Some(g);
+                    }
+                    Some(mut g) => {
+                        let re = spec.re_aim::<V, K, S>(vol, &g);
+                        if re.blocks() == 0 {
+                            re.finish(&mut g, Vec::new());
+                            ready = Some(g);
+                        } else {
+                            work = Some(GridWork::aim(re, g, &vol, self.threads));
+                        }
                     }
                     None if self.threads <= 1 => ready = Some(aimed(plan).build(&vol)),
                     None => work = Some(GridWork::new(aimed(plan), &vol, self.threads)),
@@ -656,7 +666,7 @@ pub fn build_skip_grid<V: Voxel>(
     if threads <= 1 {
         return plan.build(vol);
     }
-    let work = GridWork::new(plan, vol, threads);
+    let work = GridWork::new(plan.clone(), vol, threads);
     std::thread::scope(|s| {
         for _ in 0..threads.min(work.runs) {
             s.spawn(|| work.help());
@@ -664,79 +674,128 @@ pub fn build_skip_grid<V: Voxel>(
     });
     // (Every run is built once the workers are done, so the grid is there; were it not,
     // one thread builds it.)
-    let GridWork { plan, grid, .. } = work;
-    grid.into_inner().unwrap_or_else(|| plan.build(vol))
+    work.into_grid().unwrap_or_else(|| plan.build(vol))
 }
 
 /// A skip grid that several workers build together, run by run (about four runs of
-/// coarse slabs a worker, taken from one queue): each worker of a render helps before
-/// each band of rows it casts, and casts rows one at a time without the grid while
-/// another worker still builds the last runs or aims the grid (the same bits: skipping
-/// is exact). So the grid's build takes no thread start of its own, and a worker that
-/// starts late (on the 2-vCPU machine of bench/RESULTS.md run 59 a spawned thread often
-/// starts 0.1–0.8 ms after it was spawned) holds nobody up.
+/// coarse slabs a worker, taken from one queue), or a kept grid they aim anew together
+/// (runs of its fine blocks, [`ReAim`]): each worker of a render helps before each band
+/// of rows it casts, and casts rows one at a time without the grid while another worker
+/// still builds or aims the last runs (the same bits: skipping is exact). So neither
+/// takes a thread start of its own, and a worker that starts late (on the 2-vCPU machine
+/// of bench/RESULTS.md run 59 a spawned thread often starts 0.1–0.8 ms after it was
+/// spawned) holds nobody up.
 struct GridWork<'p, 'v, 'd, V: Voxel> {
-    plan: SkipPlan<'p>,
+    job: Job<'p>,
     vol: &'v Volume<'d, V>,
-    /// The runs of coarse slabs not yet taken, the last first.
+    /// The runs not yet taken, the last first.
     todo: Mutex<Vec<std::ops::Range<usize>>>,
-    /// The whole grid, each run copied in by the worker that built it, and how many
-    /// runs are in it, until the last is.
-    done: Mutex<(rnd_core::skip::SkipAssembly, usize)>,
     /// How many runs there are.
     runs: usize,
     grid: std::sync::OnceLock<SkipGrid>,
 }
 
+/// What [`GridWork`]'s runs make.
+// (One a render: the variants' sizes do not matter.)
+#[allow(clippy::large_enum_variant)]
+enum Job<'p> {
+    /// A grid from its plan: the whole grid, each run copied in by the worker that built
+    /// it, and how many runs are in it, until the last is (then the worker that put it
+    /// puts the grid together, aimed when the plan is).
+    Build(SkipPlan<'p>, Mutex<(rnd_core::skip::SkipAssembly, usize)>),
+    /// A kept grid's aim: the parts made, and the grid, until the last part is in (then
+    /// the worker that made it aims the grid).
+    Aim(ReAim, Mutex<(Vec<AimPart>, Option<SkipGrid>)>),
+}
+
 impl<'p, 'v, 'd, V: Voxel> GridWork<'p, 'v, 'd, V> {
     fn new(plan: SkipPlan<'p>, vol: &'v Volume<'d, V>, threads: usize) -> Self {
+        let whole = plan.assembly();
         let n = plan.slabs();
+        Self::with_runs(Job::Build(plan, Mutex::new((whole, 0))), n, vol, threads)
+    }
+
+    /// `grid` aimed by `re` (its [`RenderSpec::re_aim`]) in runs of its fine blocks.
+    fn aim(re: ReAim, grid: SkipGrid, vol: &'v Volume<'d, V>, threads: usize) -> Self {
+        let n = re.blocks();
+        Self::with_runs(
+            Job::Aim(re, Mutex::new((Vec::new(), Some(grid)))),
+            n,
+            vol,
+            threads,
+        )
+    }
+
+    /// `job` in about four runs a worker of `0 .. n`.
+    fn with_runs(job: Job<'p>, n: usize, vol: &'v Volume<'d, V>, threads: usize) -> Self {
         let k = (4 * threads).clamp(1, n.max(1));
         let todo: Vec<_> = (0..k).rev().map(|i| i * n / k..(i + 1) * n / k).collect();
-        let whole = plan.assembly();
         GridWork {
-            plan,
+            job,
             vol,
             runs: todo.len(),
             todo: Mutex::new(todo),
-            done: Mutex::new((whole, 0)),
             grid: std::sync::OnceLock::new(),
         }
     }
 
-    /// Builds runs until none is left to take, putting each into the whole grid; the
-    /// worker that puts the last puts the grid together (aimed, when the plan is) for
-    /// everyone.
+    /// Makes runs until none is left to take, putting each into the whole; the worker
+    /// that puts the last finishes the grid for everyone.
     fn help(&self) {
         while let Some(r) = self.todo.lock().ok().and_then(|mut q| q.pop()) {
-            let run = self.plan.build_run(self.vol, r);
-            let Ok(mut done) = self.done.lock() else {
-                return;
-            };
-            let (whole, n) = &mut *done;
-            // (A run this plan built always fits it: `put` cannot fail here, and if it
-            // did, no grid would be made and the rows rendered without one.)
-            if self.plan.put(whole, run) {
-                *n += 1;
-            }
-            if *n == self.runs {
-                let whole = std::mem::take(whole);
-                drop(done);
-                if let Some(g) = self.plan.assemble(whole) {
-                    let _ = self.grid.set(g);
+            match &self.job {
+                Job::Build(plan, done) => {
+                    let run = plan.build_run(self.vol, r);
+                    let Ok(mut done) = done.lock() else {
+                        return;
+                    };
+                    let (whole, n) = &mut *done;
+                    // (A run this plan built always fits it: `put` cannot fail here, and
+                    // if it did, no grid would be made and the rows rendered without one.)
+                    if plan.put(whole, run) {
+                        *n += 1;
+                    }
+                    if *n == self.runs {
+                        let whole = std::mem::take(whole);
+                        drop(done);
+                        if let Some(g) = plan.assemble(whole) {
+                            let _ = self.grid.set(g);
+                        }
+                    }
+                }
+                Job::Aim(re, done) => {
+                    let part = re.part(r);
+                    let Ok(mut done) = done.lock() else {
+                        return;
+                    };
+                    let (parts, grid) = &mut *done;
+                    parts.push(part);
+                    if parts.len() == self.runs {
+                        let (parts, grid) = (std::mem::take(parts), grid.take());
+                        drop(done);
+                        if let Some(mut g) = grid {
+                            re.finish(&mut g, parts);
+                            let _ = self.grid.set(g);
+                        }
+                    }
                 }
             }
         }
     }
 
-    /// The grid, once the last run is built.
+    /// The grid, once the last run is in.
     fn grid(&self) -> Option<&SkipGrid> {
         self.grid.get()
     }
 
-    /// The grid, if the last run was built.
+    /// The grid, if the last run was put in (a kept grid also when not: only its aim
+    /// waited, which each render makes anew).
     fn into_grid(self) -> Option<SkipGrid> {
-        self.grid.into_inner()
+        let g = self.grid.into_inner();
+        match self.job {
+            Job::Aim(_, done) => g.or_else(|| done.into_inner().ok()?.1),
+            Job::Build(..) => g,
+        }
     }
 }
 
@@ -889,6 +948,56 @@ mod tests {
             assert!(work.grid() == Some(&one), "{t} workers");
             assert!(work.into_grid() == Some(one.clone()));
         }
+    }
+
+    /// A kept grid aimed anew by any number of workers ([`super::GridWork::aim`]) is
+    /// aimed as one thread aims it ([`RenderSpec::aim`]), in either arithmetic.
+    #[test]
+    fn kept_grids_are_aimed_by_the_workers() {
+        use rnd_core::blend::Blend;
+        use rnd_core::camera::CameraSpec;
+        use rnd_core::kernel::Tent;
+        use rnd_core::probe::Probe;
+        use rnd_core::render::{RenderParams, RenderSpec};
+        let sizes = [20, 18, 24];
+        let data: Vec<f32> = (0..sizes.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 97) as f32)
+            .collect();
+        let vol = Volume::new(&data, sizes, Affine4::IDENTITY).unwrap();
+        let e: Vec<[f32; 4]> = (0..50)
+            .map(|i| [1.0, 0.5, 0.2, if i < 30 { 0.0 } else { 0.4 }])
+            .collect();
+        let lut = Lut::new(0.0, 97.0, e).unwrap();
+        let mut aimed = 0;
+        for eye in [[1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [-2.0, 1.0, 0.5]] {
+            for reference in [true, false] {
+                let cam = CameraSpec::framing(&vol.world_corners(), eye)
+                    .unwrap()
+                    .size(40, 36)
+                    .orthographic(true);
+                let mut p = RenderParams::new(cam);
+                (p.blend, p.probe, p.reference) = (Blend::Over, Probe::Rgba, reference);
+                let spec = RenderSpec::new(p, Some(&lut), None, &[]).unwrap();
+                let kept = spec.skip_plan(&vol, KernelName::Tent).unwrap().build(&vol);
+                let mut want = kept.clone();
+                spec.aim::<f32, Tent, 2>(vol, &mut want);
+                assert!(want != kept, "not aimed: {eye:?}");
+                aimed += 1;
+                for t in [1, 2, 3, 8] {
+                    let re = spec.re_aim::<f32, Tent, 2>(vol, &kept);
+                    let work = super::GridWork::aim(re, kept.clone(), &vol, t);
+                    assert!(work.grid().is_none());
+                    std::thread::scope(|s| {
+                        for _ in 0..t {
+                            s.spawn(|| work.help());
+                        }
+                    });
+                    assert!(work.grid() == Some(&want), "{eye:?}, {t} workers");
+                    assert!(work.into_grid() == Some(want.clone()));
+                }
+            }
+        }
+        assert_eq!(aimed, 6);
     }
 
     /// A loaded volume keeps its skip grid between renders: the frames after the first
