@@ -925,26 +925,35 @@ mod tests {
         }
     }
 
+    /// Test voxels: 0 to 96 in a scattered order.
+    fn voxels(sizes: [usize; 3]) -> Vec<f32> {
+        (0..sizes.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 97) as f32)
+            .collect()
+    }
+
+    /// `t` workers helping with `work` at once.
+    fn help(work: &super::GridWork<'_, '_, '_, f32>, t: usize) {
+        std::thread::scope(|s| {
+            for _ in 0..t {
+                s.spawn(|| work.help());
+            }
+        });
+    }
+
     /// Workers helping with a grid at once put it together, the grid one thread builds;
     /// before any helps there is none.
     #[test]
     fn grid_work_is_put_together_once() {
         let sizes = [19, 23, 70];
-        let data: Vec<f32> = (0..sizes.iter().product::<usize>())
-            .map(|i| ((i * 7919) % 97) as f32)
-            .collect();
-        let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.; 3]);
-        let vol = Volume::new(&data, sizes, itow).unwrap();
+        let data = voxels(sizes);
+        let vol = Volume::new(&data, sizes, Affine4::IDENTITY).unwrap();
         let plan = SkipPlan::for_max(&vol, KernelName::Bspln3, SkipKind::MaxValue).unwrap();
         let one = plan.clone().build(&vol);
         for t in [1, 2, 3, 8] {
             let work = super::GridWork::new(plan.clone(), &vol, t);
             assert!(work.grid().is_none());
-            std::thread::scope(|s| {
-                for _ in 0..t {
-                    s.spawn(|| work.help());
-                }
-            });
+            help(&work, t);
             assert!(work.grid() == Some(&one), "{t} workers");
             assert!(work.into_grid() == Some(one.clone()));
         }
@@ -960,9 +969,7 @@ mod tests {
         use rnd_core::probe::Probe;
         use rnd_core::render::{RenderParams, RenderSpec};
         let sizes = [20, 18, 24];
-        let data: Vec<f32> = (0..sizes.iter().product::<usize>())
-            .map(|i| ((i * 7919) % 97) as f32)
-            .collect();
+        let data = voxels(sizes);
         let vol = Volume::new(&data, sizes, Affine4::IDENTITY).unwrap();
         let e: Vec<[f32; 4]> = (0..50)
             .map(|i| [1.0, 0.5, 0.2, if i < 30 { 0.0 } else { 0.4 }])
@@ -987,11 +994,7 @@ mod tests {
                     let re = spec.re_aim::<f32, Tent, 2>(vol, &kept);
                     let work = super::GridWork::aim(re, kept.clone(), &vol, t);
                     assert!(work.grid().is_none());
-                    std::thread::scope(|s| {
-                        for _ in 0..t {
-                            s.spawn(|| work.help());
-                        }
-                    });
+                    help(&work, t);
                     assert!(work.grid() == Some(&want), "{eye:?}, {t} workers");
                     assert!(work.into_grid() == Some(want.clone()));
                 }
