@@ -636,19 +636,21 @@ fn bands<T: Send, U: Send>(
 }
 
 /// The pilot's rays (see [`rnd_core::render::PilotCast`]) cast on `threads` threads,
-/// each taking every `threads`-th pilot row (with one, on the calling thread).
+/// each taking every `threads`-th pilot row, the calling thread one of them (its rows
+/// are cast while the others start).
 fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> Vec<f32> {
     let n = threads.clamp(1, 16) as u32;
     if n == 1 {
         return rays(0, 1);
     }
     std::thread::scope(|s| {
-        let parts: Vec<_> = (0..n).map(|i| s.spawn(move || rays(i, n))).collect();
+        let parts: Vec<_> = (1..n).map(|i| s.spawn(move || rays(i, n))).collect();
+        let mut all = rays(0, n);
         // (A part whose thread failed gives no maxima: the verdict is only about time.)
-        parts
-            .into_iter()
-            .flat_map(|p| p.join().unwrap_or_default())
-            .collect()
+        for p in parts {
+            all.extend(p.join().unwrap_or_default());
+        }
+        all
     })
 }
 
@@ -922,6 +924,27 @@ mod tests {
                     assert!(many == one, "{k:?} {kind:?} with {t} threads");
                 }
             }
+        }
+    }
+
+    /// The pilot's rays on any number of threads: every part once, whichever thread
+    /// cast it.
+    #[test]
+    fn pilot_parts_are_each_cast_once() {
+        let rays = |part: u32, parts: u32| -> Vec<f32> {
+            (part..16)
+                .step_by(parts as usize)
+                .map(|r| r as f32)
+                .collect()
+        };
+        for t in [0, 1, 2, 3, 5, 16, 40] {
+            let mut got = super::on_threads(&rays, t);
+            got.sort_by(f32::total_cmp);
+            assert_eq!(
+                got,
+                (0..16).map(|r| r as f32).collect::<Vec<_>>(),
+                "{t} threads"
+            );
         }
     }
 
