@@ -1541,8 +1541,9 @@ impl<A: Arith> March<'_, '_, A> {
     /// memory is not there.
     pub(crate) fn aim(&self) -> Option<Aim> {
         let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
-        let aim = self.aim_model(g.fine_blocks().0)?;
-        let (firsts, span) = aim.firsts(g.fine_blocks().1, 0)?;
+        let (nf, fine) = g.fine_blocks();
+        let aim = self.aim_model(nf)?;
+        let (firsts, span) = aim.firsts(fine, 0)?;
         aim.sorted(&[&firsts], span)
     }
 
