@@ -1540,10 +1540,8 @@ impl<A: Arith> March<'_, '_, A> {
     /// when the rays' lines do not follow one model (perspective views) or when the
     /// memory is not there.
     pub(crate) fn aim(&self) -> Option<Aim> {
-        let g = self.skip.filter(|g| g.kind() == SkipKind::Opacity)?;
-        let (nf, fine) = g.fine_blocks();
-        let aim = self.aim_model(nf)?;
-        let (firsts, span) = aim.firsts(fine, 0)?;
+        let aim = self.grid_model()?;
+        let (firsts, span) = aim.firsts(self.skip?.fine_blocks().1, 0)?;
         aim.sorted(&[&firsts], span)
     }
 
