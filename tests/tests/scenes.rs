@@ -783,6 +783,64 @@ proptest::proptest! {
 }
 
 proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config { cases: 24, .. Default::default() })]
+
+    /// The frames of a loaded volume (`rnd_std::parallel::render_volume`: the volume
+    /// keeps its skip grid from frame to frame, and the render's workers aim it at each
+    /// new camera in parts, or build it in runs) give, at every thread count, the bits of
+    /// a render of that frame alone on one thread: random cameras and thread counts,
+    /// every kernel, both arithmetics, lit `over` with a LUT (the opacity grid) and `max`
+    /// of the value or the gradient magnitude (the bounds grid).
+    #[test]
+    fn kept_grid_frames_are_fresh_renders_at_any_thread_count(
+        which in proptest::sample::select(vec![2u32, 9, 10, 12, 13, 14]),
+        ki in 0usize..7,
+        eyes in proptest::collection::vec(proptest::array::uniform3(-6.0f64..6.0), 3),
+        threads in proptest::collection::vec(1usize..6, 3),
+        what in 0usize..3,
+        short in proptest::bool::ANY,
+        ortho in proptest::bool::ANY,
+        lo in 0.0f64..0.9,
+    ) {
+        use rnd_std::parallel::{render_volume, render_with, Control};
+        use rnd_std::volume_io::{VolumeBuf, VolumeData};
+        proptest::prop_assume!(eyes.iter().all(|e| e.iter().map(|x| x * x).sum::<f64>() > 9.0));
+        let sv = SdgVolume::new(which, [23, 19, 21], short);
+        let data = if short { VolumeData::I16(sv.s.clone()) } else { VolumeData::F32(sv.f.clone()) };
+        let lut = class_lut(0, sv.scale(), lo, 0.3);
+        let lights = [Light::new([1.0, 0.8, 0.6], [1.0, 2.0, 3.0], LightSpace::View).unwrap()];
+        let k = KernelName::ALL[ki];
+        let ctl = Control::new();
+        for reference in ENGINES {
+            // A new volume for each arithmetic: its first frame builds the grid.
+            let vol = VolumeBuf::new(data.clone(), sv.sizes, sv.itow).unwrap();
+            for (i, (&eye, &nt)) in eyes.iter().zip(&threads).enumerate() {
+                let mut p = RenderParams::new(cam(eye, [0.0; 3], [0.0, 0.0, 1.0], -2.0, 2.0, [24, 18], ortho));
+                p.reference = reference;
+                p.plane_sep = 0.03;
+                p.unit_step = 0.05;
+                let (lut, lights) = if what == 0 {
+                    (p.probe, p.blend) = (Probe::RgbaLit, Blend::Over);
+                    (Some(&lut), &lights[..])
+                } else {
+                    p.probe = if what == 1 { Probe::Value } else { Probe::GradMag };
+                    p.blend = Blend::Max;
+                    (None, &[][..])
+                };
+                let spec = RenderSpec::new(p, lut, None, lights).unwrap();
+                proptest::prop_assert!(spec.skip_kind().is_some());
+                let kept = render_volume(&spec, &vol, k, nt, &ctl).unwrap();
+                let alone = render_with(&spec, vol.view(), k, 1, &ctl).unwrap();
+                proptest::prop_assert!(
+                    kept.iter().zip(&alone).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{k} w{which} -ref {reference} frame {i}, {nt} threads, what {what}"
+                );
+            }
+        }
+    }
+}
+
+proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config { cases: 32, .. Default::default() })]
 
     /// A volume whose rows are padded (`Volume::padded`, the copy `rnd-std` makes of
