@@ -3,7 +3,8 @@
 //! give finite output unless NaN was asked for (outside value), and the accelerated loop
 //! must give exactly the plain loop's image (the f64 engine, `-ref false`). The same for
 //! the reference arithmetic (the default): finite output, and its batched loop gives the
-//! one-sample loop's image.
+//! one-sample loop's image; and `render_rows` and `cast` refuse outputs of the wrong
+//! shape (a Render error) and fill those of the right one with the image's bits.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -44,7 +45,8 @@ fn traced(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName) -> Vec<
     let mut img = vec![0.0f32; (w * h) as usize * len];
     for (px, out) in img.chunks_mut(len).enumerate() {
         let mut ignore = |_: &SampleInfo| {};
-        spec.cast(vol, kernel, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore));
+        spec.cast(vol, kernel, px as u32 % w, px as u32 / w, out, Loop::OneSample, Some(&mut ignore))
+            .expect("a pixel of the image");
     }
     img
 }
@@ -143,6 +145,33 @@ fuzz_target!(|data: &[u8]| {
         lanes.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()),
         "-ref lanes {lanes:?} vs one-sample {one:?} for {p:?} {kernel}"
     );
+    // Rows and a pixel asked for with outputs of random shapes (read last, so that older
+    // inputs keep their meaning): refused with a Render error when misshapen, never a
+    // panic; otherwise the image's own bits.
+    let ([w, h], ch) = (ref_spec.size(), ref_spec.channels());
+    let (r0, r1) = (b.u8() as u32 % (h + 2), b.u8() as u32 % (h + 2));
+    let want = r1.saturating_sub(r0) as usize * w as usize * ch;
+    let len = [want, want.saturating_sub(1), want + 1][b.u8() as usize % 3];
+    let mut rows = vec![0.0f32; len];
+    let r = ref_spec.render_rows(AnyVolume::F32(vol), kernel, None, r0..r1, &mut rows, None);
+    let fits = r0 <= r1 && r1 <= h && len == want;
+    assert_eq!(r.is_ok(), fits, "rows {r0}..{r1} into {len} floats: {r:?}");
+    if fits {
+        let img = &lanes[r0 as usize * w as usize * ch..r1 as usize * w as usize * ch];
+        assert!(img.iter().zip(&rows).all(|(a, b)| a.to_bits() == b.to_bits()), "rows {r0}..{r1}");
+    }
+    let (hi, vi) = (b.u8() as u32 % (w + 2), b.u8() as u32 % (h + 2));
+    let mut room = vec![0.0f32; b.u8() as usize % (ch + 2)];
+    let r = ref_spec.cast(AnyVolume::F32(vol), kernel, hi, vi, &mut room, Loop::Batched, None);
+    let fits = hi < w && vi < h && room.len() >= ch;
+    assert_eq!(r.is_ok(), fits, "pixel ({hi}, {vi}) into {} floats: {r:?}", room.len());
+    if fits {
+        let px = &lanes[(vi * w + hi) as usize * ch..][..ch];
+        assert!(px.iter().zip(&room).all(|(a, b)| a.to_bits() == b.to_bits()), "pixel ({hi}, {vi})");
+    }
+    if let Err(e) = r {
+        assert_eq!(e.kind, rnd_core::ErrorKind::Render, "{e}");
+    }
 });
 
 /// The whole image on this thread (these scenes are small and valid).

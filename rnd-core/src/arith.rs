@@ -788,18 +788,18 @@ impl<V: Voxel, K: Kernel<S>, const S: usize> Arith for Reference<'_, '_, V, K, S
         let mut lanes = Lanes::<S>::default();
         if let Ok(o) = <&mut [[f32; 4]; LANES]>::try_from(&mut out[..]) {
             for j in 0..m.min(LANES) {
-                lanes.push_placed(&self.vol, n[j], f[j]);
+                lanes.put(&self.vol, n[j], f[j]);
             }
-            return lanes.convolve::<V, K, G>(&self.vol, self.simd, o);
+            return lanes.sums::<V, K, G>(&self.vol, self.simd, o);
         }
         let mut res = [[0.0f32; 4]; LANES];
         let mut i = 0;
         while i < m {
             let take = (m - i).min(LANES);
             for j in i..i + take {
-                lanes.push_placed(&self.vol, n[j], f[j]);
+                lanes.put(&self.vol, n[j], f[j]);
             }
-            lanes.convolve::<V, K, G>(&self.vol, self.simd, &mut res);
+            lanes.sums::<V, K, G>(&self.vol, self.simd, &mut res);
             out[i..i + take].copy_from_slice(&res[..take]);
             lanes.clear();
             i += take;

@@ -342,7 +342,8 @@ impl Accum {
         self.acc[3]
     }
 
-    /// Final values into `out[..len]`; `outside` when nothing was blended. `kept` holds
+    /// Final values into the front of `out` (`len` of them, `over` its four; as many as
+    /// `out` holds); `outside` when nothing was blended. `kept` holds
     /// the median's samples (reordered here; without them the median is NaN); the other
     /// blends ignore it.
     #[inline(always)]
@@ -363,10 +364,10 @@ impl Accum {
             }
             Blend::Over => {
                 let a = self.acc[3];
-                for c in 0..3 {
-                    out[c] = if a > 0.0 { self.acc[c] / a } else { 0.0 };
-                }
-                out[3] = a;
+                let rgb = |c: usize| if a > 0.0 { self.acc[c] / a } else { 0.0 };
+                let px = [rgb(0), rgb(1), rgb(2), a];
+                let n = out.len().min(4);
+                out[..n].copy_from_slice(&px[..n]);
             }
             _ => self.finish_statistic(kept, &mut out[..len]),
         }

@@ -537,10 +537,27 @@ impl<const S: usize> Lanes<S> {
         self.len = 0;
     }
 
-    /// Adds a sample already placed (support start `n`, inside `vol`; fractions `al`).
-    /// The batch must not be full.
+    /// Adds a sample already placed: support start `n` (counted from the samples held)
+    /// and fractions `al`; false (nothing added) when the batch is full or that support
+    /// is not inside `vol`.
+    pub fn push_placed<V: Voxel>(
+        &mut self,
+        vol: &Volume<'_, V>,
+        n: [i64; 3],
+        al: [f32; 3],
+    ) -> bool {
+        let sz = vol.sizes();
+        let inside = (0..3).all(|a| n[a] >= 0 && n[a] as u64 + S as u64 <= sz[a] as u64);
+        if self.is_full() || !inside {
+            return false;
+        }
+        self.put(vol, n, al);
+        true
+    }
+
+    /// [`Lanes::push_placed`] of a sample the caller placed inside, in a batch not full.
     #[inline(always)]
-    pub fn push_placed<V: Voxel>(&mut self, vol: &Volume<'_, V>, n: [i64; 3], al: [f32; 3]) {
+    pub(crate) fn put<V: Voxel>(&mut self, vol: &Volume<'_, V>, n: [i64; 3], al: [f32; 3]) {
         let sz = vol.sizes();
         let l = self.len;
         self.base[l] = n[0] as usize + vol.row_stride() * (n[1] as usize + sz[1] * n[2] as usize);
@@ -550,10 +567,13 @@ impl<const S: usize> Lanes<S> {
         self.len += 1;
     }
 
-    /// Adds the sample at index position `p` when its support is inside `vol` (true);
-    /// false (nothing added) otherwise. The batch must not be full.
+    /// Adds the sample at index position `p` when its support is inside `vol` and the
+    /// batch is not full (true); false (nothing added) otherwise.
     #[inline(always)]
     pub fn push<V: Voxel, K: Kernel<S>>(&mut self, vol: &Volume<'_, V>, p: V3) -> bool {
+        if self.is_full() {
+            return false;
+        }
         let (sz, org) = (vol.sizes(), vol.origin());
         let (mut n, mut al) = ([0i64; 3], [0.0f32; 3]);
         for a in 0..3 {
@@ -562,15 +582,32 @@ impl<const S: usize> Lanes<S> {
             };
             (n[a], al[a]) = (lo, f);
         }
-        self.push_placed(vol, n, al);
+        self.put(vol, n, al);
         true
     }
 
     /// Convolves the batch: `out[l]` is lane l's value and (with `G`) index gradient,
     /// bit for bit what [`convolve`] gives for that sample, at the widest vector level
-    /// `simd` allows.
-    #[inline]
+    /// `simd` allows. False (nothing written) when the batch is empty or `vol` does not
+    /// hold the supports (another volume than the samples were added for).
     pub fn convolve<V: Voxel, K: Kernel<S>, const G: bool>(
+        &self,
+        vol: &Volume<'_, V>,
+        simd: crate::simd::Simd,
+        out: &mut [[f32; 4]; LANES],
+    ) -> bool {
+        let last = (S - 1) * (1 + vol.row_stride() + vol.slice_stride());
+        let held = |b: &usize| b.checked_add(last).is_some_and(|e| e < vol.data().len());
+        if self.is_empty() || !self.base[..self.len].iter().all(held) {
+            return false;
+        }
+        self.sums::<V, K, G>(vol, simd, out);
+        true
+    }
+
+    /// [`Lanes::convolve`] of a batch not empty, its samples added for `vol`.
+    #[inline]
+    pub(crate) fn sums<V: Voxel, K: Kernel<S>, const G: bool>(
         &self,
         vol: &Volume<'_, V>,
         simd: crate::simd::Simd,
@@ -853,8 +890,8 @@ mod lane_tests {
             let sums = |lanes: &Lanes<S>| {
                 let mut v = [[0.0f32; 4]; LANES];
                 let mut vg = [[0.0f32; 4]; LANES];
-                lanes.convolve::<V, K, false>(&vol, simd, &mut v);
-                lanes.convolve::<V, K, true>(&vol, simd, &mut vg);
+                assert!(lanes.convolve::<V, K, false>(&vol, simd, &mut v));
+                assert!(lanes.convolve::<V, K, true>(&vol, simd, &mut vg));
                 let mut g = [[0.0f32; 4]; LANES];
                 let batch = LaneBatch {
                     vol: &vol,

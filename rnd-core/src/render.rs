@@ -780,11 +780,15 @@ impl<'a> RenderSpec<'a> {
     }
 
     /// Casts the ray through pixel (hi, vi) of `vol` with kernel `kernel` and `mode`, and
-    /// writes its probe-length result to `out`; `trace`, when given, sees every sample.
-    /// Both loops give the same bits.
+    /// writes its probe-length result to the front of `out`; `trace`, when given, sees
+    /// every sample. Both loops give the same bits.
     ///
     /// Not generic: the loops are compiled once, in this crate, for every voxel type,
     /// kernel and arithmetic, not again in each crate that renders.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Render`] when the pixel is not in the image or `out` is shorter than
+    /// the probe; [`ErrorKind::Volume`] as [`RenderSpec::check_volume`].
     // Left out of this crate's unit-test build (which renders only through `rows_in`):
     // the loops for every voxel type, kernel and arithmetic are most of rnd-core's
     // build time, and the integration tests and the library itself build them anyway.
@@ -799,11 +803,52 @@ impl<'a> RenderSpec<'a> {
         out: &mut [f32],
         mode: Loop,
         trace: Trace<'_>,
-    ) {
+    ) -> Result<()> {
+        self.check_volume(vol.grid())?;
+        let ([w, h], plen) = (self.size(), self.params.probe.length());
+        if hi >= w || vi >= h || out.len() < plen {
+            return Err(Error::new(
+                ErrorKind::Render,
+                alloc::format!(
+                    "pixel ({hi}, {vi}) with room for {} floats: a {w} x {h} image's \
+                     pixels take {plen}",
+                    out.len()
+                ),
+            ));
+        }
         let mut trace = trace;
         self.on_march(vol, kernel, None, None, trace.is_some(), &mut |m| {
-            m.cast(hi, vi, Out::Pixel(&mut *out), mode, trace.take())
+            m.cast(hi, vi, Out::Pixel(&mut out[..plen]), mode, trace.take())
         });
+        Ok(())
+    }
+
+    /// The checks of a call that renders image rows `rows` of `vol` into `items` items,
+    /// `per_pixel` a pixel (`what` names them).
+    #[cfg(not(test))] // as for `cast`
+    fn check_rows(
+        &self,
+        vol: AnyVolume<'_>,
+        rows: &core::ops::Range<u32>,
+        items: usize,
+        per_pixel: usize,
+        what: &str,
+    ) -> Result<()> {
+        self.check_volume(vol.grid())?;
+        let [w, h] = self.size();
+        let need = rows.len() * w as usize * per_pixel;
+        if rows.start > rows.end || rows.end > h || items != need {
+            return Err(Error::new(
+                ErrorKind::Render,
+                alloc::format!(
+                    "{items} {what} for rows {}..{} of a {w} x {h} image (rows must lie \
+                     in 0..{h} and take {per_pixel} a pixel)",
+                    rows.start,
+                    rows.end
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Renders image rows `rows` of `vol` with kernel `kernel` into `out` (`channels`
@@ -812,6 +857,11 @@ impl<'a> RenderSpec<'a> {
     /// `clock`, when given, returns milliseconds and fills the time channel.
     ///
     /// Not generic, as [`RenderSpec::cast`].
+    ///
+    /// # Errors
+    /// [`ErrorKind::Render`] when `rows` are not rows of the image or `out` does not
+    /// hold exactly their [`RenderSpec::channels`] floats a pixel; [`ErrorKind::Volume`]
+    /// as [`RenderSpec::check_volume`].
     #[cfg(not(test))] // as for `cast`
     pub fn render_rows(
         &self,
@@ -821,10 +871,12 @@ impl<'a> RenderSpec<'a> {
         rows: core::ops::Range<u32>,
         out: &mut [f32],
         clock: Option<&dyn Fn() -> f64>,
-    ) {
+    ) -> Result<()> {
+        self.check_rows(vol, &rows, out.len(), self.channels, "floats")?;
         self.on_march(vol, kernel, skip, None, false, &mut |m| {
             self.cast_rows(m, rows.clone(), &mut *out, clock)
         });
+        Ok(())
     }
 
     /// Renders, for each pixel of image rows `rows`, the [`Partial`](crate::brick::Partial)
@@ -840,8 +892,9 @@ impl<'a> RenderSpec<'a> {
     ///
     /// # Errors
     /// [`ErrorKind::Volume`] when a ray's computed positions could lie half a voxel or
-    /// more from its exact line (coordinates too large for the ghost layers), or `out` or
-    /// `samples` has the wrong length.
+    /// more from its exact line (coordinates too large for the ghost layers), or as
+    /// [`RenderSpec::check_volume`]; [`ErrorKind::Render`] when `rows` are not rows of
+    /// the image or `out` or `samples` has the wrong length.
     #[cfg(not(test))] // as for `cast`
     #[allow(clippy::too_many_arguments)]
     pub fn render_part_rows(
@@ -855,19 +908,9 @@ impl<'a> RenderSpec<'a> {
         samples: &mut [Vec<f32>],
         clock: Option<&dyn Fn() -> f64>,
     ) -> Result<()> {
-        let n = rows.len() * self.size()[0] as usize;
-        let median = self.params.blend.keeps_samples();
-        if out.len() != n || (median && samples.len() != n) {
-            return Err(Error::new(
-                ErrorKind::Volume,
-                alloc::format!(
-                    "{} partials and {} sample lists for {} rows of {} pixels",
-                    out.len(),
-                    samples.len(),
-                    rows.len(),
-                    self.size()[0]
-                ),
-            ));
+        self.check_rows(vol, &rows, out.len(), 1, "partials")?;
+        if self.params.blend.keeps_samples() {
+            self.check_rows(vol, &rows, samples.len(), 1, "sample lists")?;
         }
         let w = self.size()[0] as usize;
         let mode = self.loop_mode();

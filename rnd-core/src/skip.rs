@@ -1099,7 +1099,8 @@ impl SkipGrid {
     /// The flags ([`FINE_EMPTY`], [`COARSE_EMPTY`]) of the fine block of support start
     /// `lo` (all three axes inside the volume).
     #[inline(always)]
-    pub fn flags_at(&self, lo: [i64; 3]) -> u8 {
+    #[cfg(test)]
+    pub(crate) fn flags_at(&self, lo: [i64; 3]) -> u8 {
         self.fine[self.fine_index(lo)]
     }
 
@@ -1112,7 +1113,7 @@ impl SkipGrid {
 
     /// The flags of fine block `b` (block numbers per axis, inside the grid).
     #[inline(always)]
-    pub fn fine_flags(&self, b: [usize; 3]) -> u8 {
+    pub(crate) fn fine_flags(&self, b: [usize; 3]) -> u8 {
         self.fine[b[0] + self.nf[0] * (b[1] + self.nf[1] * b[2])]
     }
 
@@ -1120,7 +1121,7 @@ impl SkipGrid {
     /// inside the volume) has zero LUT opacity, as far as the grid tells: its fine block
     /// is empty, or the voxels this convolution reads are enough to tell.
     #[inline(always)]
-    pub fn empty_at(&self, lo: [i64; 3]) -> bool {
+    pub(crate) fn empty_at(&self, lo: [i64; 3]) -> bool {
         let [x, y, z] = lo.map(|x| x as usize % F);
         let bit = x + F * (y + F * z);
         self.starts
@@ -1131,7 +1132,8 @@ impl SkipGrid {
     /// True when every convolution whose support starts in the coarse block of `lo`
     /// (all three axes inside the volume) has zero LUT opacity.
     #[inline(always)]
-    pub fn coarse_empty_at(&self, lo: [i64; 3]) -> bool {
+    #[cfg(test)]
+    pub(crate) fn coarse_empty_at(&self, lo: [i64; 3]) -> bool {
         let b = [lo[0] as usize / B, lo[1] as usize / B, lo[2] as usize / B];
         self.empty[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])]
     }
@@ -1166,14 +1168,15 @@ impl SkipGrid {
     /// The upper bound of the maximized quantity for a convolution whose support starts
     /// at `lo` (all three axes inside the volume; the `max` kinds).
     #[inline(always)]
-    pub fn bound_at(&self, lo: [i64; 3]) -> f32 {
+    pub(crate) fn bound_at(&self, lo: [i64; 3]) -> f32 {
         self.hi[self.fine_index(lo)]
     }
 
     /// The upper bound of [`SkipGrid::bound_at`] over every support start in the box
     /// from `lo` to `hi` (`lo ≤ hi` on each axis, all inside the volume; +∞ for a box
     /// beyond the grid).
-    pub fn bound_over(&self, lo: [i64; 3], hi: [i64; 3]) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn bound_over(&self, lo: [i64; 3], hi: [i64; 3]) -> f32 {
         let mut m = f32::NEG_INFINITY;
         let inside = self.every_bound(lo, hi, |b| {
             m = m.max(b);
@@ -1193,7 +1196,7 @@ impl SkipGrid {
     /// beyond the grid, or whose last block comes before its first on an axis (`lo >
     /// hi` within one block reads that block: its bound covers the empty box too).
     #[inline(always)]
-    pub fn every_bound(
+    pub(crate) fn every_bound(
         &self,
         lo: [i64; 3],
         hi: [i64; 3],
@@ -1229,14 +1232,14 @@ impl SkipGrid {
 
     /// The upper bound of [`SkipGrid::bound_at`] over the whole coarse block of `lo`.
     #[inline(always)]
-    pub fn coarse_bound_at(&self, lo: [i64; 3]) -> f32 {
+    pub(crate) fn coarse_bound_at(&self, lo: [i64; 3]) -> f32 {
         let c = lo.map(|x| x as usize / B);
         self.coarse_hi[c[0] + self.nb[0] * (c[1] + self.nb[1] * c[2])]
     }
 
     /// The support starts, `[first, last]` per axis, of the coarse block of `lo`.
     #[inline(always)]
-    pub fn coarse_box(lo: [i64; 3]) -> [[i64; 2]; 3] {
+    pub(crate) fn coarse_box(lo: [i64; 3]) -> [[i64; 2]; 3] {
         lo.map(|x| {
             let b = x.div_euclid(B as i64) * B as i64;
             [b, b + B as i64 - 1]

@@ -255,6 +255,29 @@ impl KeptGrid {
     }
 }
 
+/// The first error of a render's workers (a worker that meets one stops; the others
+/// stop at their next band).
+#[derive(Default)]
+struct FirstError(Mutex<Option<rnd_core::Error>>);
+
+impl FirstError {
+    /// Whether `r` is Ok; its error kept when it is the first.
+    fn ok(&self, r: rnd_core::Result<()>) -> bool {
+        if let (Err(e), Ok(mut f)) = (&r, self.0.lock()) {
+            f.get_or_insert_with(|| e.clone());
+        }
+        r.is_ok()
+    }
+
+    /// The first error, if any.
+    fn into_result(self) -> crate::Result<()> {
+        match self.0.into_inner().ok().flatten() {
+            Some(e) => Err(e.into()),
+            None => Ok(()),
+        }
+    }
+}
+
 /// [`render_with`], taking the grid from and leaving it in `kept` when given; `pilot`,
 /// when given, is what [`RenderSpec::skip_pays`] said for this render.
 fn render_kept(
@@ -290,11 +313,11 @@ fn render_kept(
         pilot: Option<bool>,
     }
     impl ConvoTask for Task<'_, '_, '_> {
-        type Output = Option<Vec<f32>>;
+        type Output = crate::Result<Vec<f32>>;
         fn run<V: Voxel, K: Kernel<S>, const S: usize>(
             self,
             vol: Volume<'_, V>,
-        ) -> Option<Vec<f32>> {
+        ) -> crate::Result<Vec<f32>> {
             let spec = self.spec;
             let control = self.control;
             let [w, h] = spec.size();
@@ -340,6 +363,7 @@ fn render_kept(
             }
             let mut none: [(); 0] = [];
             let w_ch = w * ch;
+            let failed = FirstError::default();
             let done = bands(
                 (&mut out, w_ch),
                 (&mut none, 0),
@@ -355,21 +379,28 @@ fn render_kept(
                         // time without it (slower, the same bits), then the rest with it.
                         while grid().is_none() && !rows.is_empty() {
                             let (row, rest) = chunk.split_at_mut(w_ch);
-                            spec.render_rows(
+                            if !failed.ok(spec.render_rows(
                                 vol.into(),
                                 K::NAME,
                                 None,
                                 rows.start..rows.start + 1,
                                 row,
                                 clock,
-                            );
+                            )) {
+                                return false;
+                            }
                             (rows.start, chunk) = (rows.start + 1, rest);
                         }
                     }
-                    if !rows.is_empty() {
-                        spec.render_rows(vol.into(), K::NAME, grid(), rows, chunk, clock);
-                    }
-                    true
+                    rows.is_empty()
+                        || failed.ok(spec.render_rows(
+                            vol.into(),
+                            K::NAME,
+                            grid(),
+                            rows,
+                            chunk,
+                            clock,
+                        ))
                 },
             );
             // (Kept even when cancelled: the grid does not depend on how far it got; a
@@ -377,7 +408,12 @@ fn render_kept(
             if let (Some(k), Some(g)) = (self.kept, ready.or_else(|| work?.into_grid())) {
                 k.keep(g);
             }
-            (done == h).then_some(out)
+            failed.into_result()?;
+            if done == h {
+                Ok(out)
+            } else {
+                Err(cancelled())
+            }
         }
     }
     if control.cancelled() {
@@ -395,7 +431,6 @@ fn render_kept(
             pilot,
         },
     )
-    .ok_or_else(cancelled)
 }
 
 /// One brick's part of a sort-last render: [`render_part_with`]'s partials, one per
@@ -469,7 +504,7 @@ pub fn render_part_with(
             let t0 = Instant::now();
             let clock = || t0.elapsed().as_secs_f64() * 1000.0;
             let timed = spec.params().time;
-            let failed: Mutex<Option<rnd_core::Error>> = Mutex::new(None);
+            let failed = FirstError::default();
             // (No pilot for a brick: its rays' maxima are the whole volume's.)
             let skip = spec
                 .skip_plan(&vol, K::NAME)
@@ -494,15 +529,10 @@ pub fn render_part_with(
                         kept,
                         clock,
                     );
-                    if let (Err(e), Ok(mut f)) = (&r, failed.lock()) {
-                        f.get_or_insert_with(|| e.clone());
-                    }
-                    r.is_ok()
+                    failed.ok(r)
                 },
             );
-            if let Some(e) = failed.into_inner().ok().flatten() {
-                return Err(e.into());
-            }
+            failed.into_result()?;
             if done == h {
                 Ok(Parts { partials, samples })
             } else {

@@ -195,6 +195,7 @@ pub fn trace(
         &mut out,
         rnd_core::march::Loop::OneSample,
         Some(&mut cb),
-    );
+    )
+    .expect("a pixel of the image");
     all
 }

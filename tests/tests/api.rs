@@ -287,3 +287,130 @@ fn framing_shows_every_corner() {
     assert!(CameraSpec::framing(&[], [1.0, 0.0, 0.0]).is_none());
     assert!(CameraSpec::framing(&corners, [0.0; 3]).is_none());
 }
+
+/// What the lower-level calls are handed in the wrong shape is refused with a Render
+/// error, never a panic: `cast` of a pixel outside the image or into room shorter than
+/// the probe, `render_rows` and `render_part_rows` of rows outside the image or with
+/// outputs of the wrong length; and the pieces they are made of stay total (`Accum`
+/// finishing into little room, a `Lanes` batch full, outside its volume, or empty).
+#[test]
+fn misshapen_calls_are_errors_not_panics() {
+    use rnd_core::blend::{Accum, MAX_CHANNELS};
+    use rnd_core::brick::{Brick, Own, Partial};
+    use rnd_core::march::Loop;
+    use rnd_core::refarith::Lanes;
+    use rnd_core::simd::Simd;
+    let vol = ones();
+    let v = vol.view();
+    let lut = Lut::new(0.0, 1.0, vec![[1.0, 1.0, 1.0, 0.0], [1.0, 0.5, 0.2, 0.5]]).unwrap();
+    let light = [Light::new([1.0; 3], [0.0, 0.0, 1.0], LightSpace::View).unwrap()];
+    let render_err = |r: rnd_core::Result<()>| {
+        let e = r.unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Render, "{e}");
+        e.msg
+    };
+    for over in [false, true] {
+        let mut p = RenderParams::new(cam());
+        if over {
+            (p.probe, p.blend) = (Probe::RgbaLit, Blend::Over);
+        }
+        let spec = RenderSpec::new(p, Some(&lut), None, &light).unwrap();
+        let plen = spec.params().probe.length();
+        let ch = spec.channels();
+        for k in [KernelName::Tent, KernelName::Bspln3] {
+            let whole = render(&spec, v.into(), k).unwrap();
+            // cast: the pixel's result at the front of room that holds it.
+            let mut room = [f32::NAN; MAX_CHANNELS];
+            spec.cast(v.into(), k, 3, 5, &mut room, Loop::Batched, None)
+                .unwrap();
+            assert_eq!(&room[..plen], &whole[(5 * 8 + 3) * ch..][..plen]);
+            assert!(room[plen..].iter().all(|x| x.is_nan()));
+            let short = &mut room[..plen - 1];
+            let m = render_err(spec.cast(v.into(), k, 3, 5, short, Loop::OneSample, None));
+            assert!(
+                m.contains("pixel (3, 5)") && m.contains(&format!("take {plen}")),
+                "{m}"
+            );
+            for (hi, vi) in [(8, 0), (0, 8), (u32::MAX, u32::MAX)] {
+                let m = render_err(spec.cast(v.into(), k, hi, vi, &mut room, Loop::Batched, None));
+                assert!(m.contains("8 x 8 image"), "{m}");
+            }
+            // render_rows: exactly the rows' floats, rows within the image.
+            let grid = spec.skip_grid(&v, k);
+            let mut rows = vec![0.0f32; 3 * 8 * ch];
+            spec.render_rows(v.into(), k, grid.as_ref(), 2..5, &mut rows, None)
+                .unwrap();
+            assert_eq!(rows, whole[2 * 8 * ch..5 * 8 * ch]);
+            for (r, len) in [
+                (2..5, 3 * 8 * ch - 1),
+                (2..5, 3 * 8 * ch + 1),
+                (7..9, 2 * 8 * ch),
+            ] {
+                let mut out = vec![0.0f32; len];
+                let m = render_err(spec.render_rows(v.into(), k, grid.as_ref(), r, &mut out, None));
+                assert!(m.contains(&format!("{len} floats")), "{m}");
+            }
+            #[allow(clippy::reversed_empty_ranges)]
+            let m = render_err(spec.render_rows(v.into(), k, None, 5..2, &mut [], None));
+            assert!(m.contains("rows 5..2"), "{m}");
+            // render_part_rows: one partial a pixel of rows within the image.
+            let own = Own::of(&Brick::whole([6; 3]), [6; 3]);
+            let mut parts = vec![Partial::empty(spec.params().blend, plen); 8];
+            spec.render_part_rows(v.into(), k, None, &own, 7..8, &mut parts, &mut [], None)
+                .unwrap();
+            let m = render_err(spec.render_part_rows(
+                v.into(),
+                k,
+                None,
+                &own,
+                8..9,
+                &mut parts,
+                &mut [],
+                None,
+            ));
+            assert!(m.contains("8 partials for rows 8..9"), "{m}");
+            parts.pop();
+            render_err(spec.render_part_rows(
+                v.into(),
+                k,
+                None,
+                &own,
+                7..8,
+                &mut parts,
+                &mut [],
+                None,
+            ));
+        }
+    }
+    // An `over` blend finished into less room than its four channels: what fits.
+    let mut a = Accum::new(Blend::Over, 4);
+    let mut x = [0.0f32; MAX_CHANNELS];
+    x[..4].copy_from_slice(&[1.0, 0.5, 0.25, 0.5]);
+    a.add(&x);
+    let (mut four, mut two) = ([0.0f32; 4], [0.0f32; 2]);
+    a.finish(0.0, None, &mut four);
+    a.finish(0.0, None, &mut two);
+    assert_eq!(two, four[..2]);
+    // A batch of lanes takes at most LANES samples, only supports inside its volume, and
+    // an empty batch (or a volume not holding its supports) convolves nothing.
+    let mut lanes = Lanes::<2>::default();
+    let mut out = [[f32::NAN; 4]; rnd_core::refarith::LANES];
+    assert!(!lanes.convolve::<f32, rnd_core::kernel::Tent, false>(&v, Simd::detect(), &mut out));
+    assert!(out.iter().flatten().all(|x| x.is_nan()));
+    for n in [[5, 0, 0], [0, -1, 0], [0, 0, i64::MAX]] {
+        assert!(!lanes.push_placed(&v, n, [0.5; 3]), "{n:?}");
+    }
+    for _ in 0..rnd_core::refarith::LANES {
+        assert!(lanes.push_placed(&v, [4, 4, 4], [0.5; 3]));
+    }
+    assert!(!lanes.push_placed(&v, [0; 3], [0.5; 3]));
+    assert!(!lanes.push::<f32, rnd_core::kernel::Tent>(&v, [1.0; 3]));
+    let small = OwnedVolume::from_fn([2; 3], Affine4::IDENTITY, |_| 1.0f32).unwrap();
+    assert!(!lanes.convolve::<f32, rnd_core::kernel::Tent, false>(
+        &small.view(),
+        Simd::detect(),
+        &mut out
+    ));
+    assert!(lanes.convolve::<f32, rnd_core::kernel::Tent, false>(&v, Simd::detect(), &mut out));
+    assert!(out.iter().all(|o| o[0] == 1.0), "{out:?}");
+}

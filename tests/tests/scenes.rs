@@ -1362,7 +1362,8 @@ fn traced_image(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> Vec
             let i = (vi * w + hi) as usize * len;
             let mut ignore = |_: &SampleInfo| {};
             let px = &mut img[i..i + len];
-            spec.cast(vol, k, hi, vi, px, Loop::OneSample, Some(&mut ignore));
+            spec.cast(vol, k, hi, vi, px, Loop::OneSample, Some(&mut ignore))
+                .unwrap();
         }
     }
     img
@@ -1531,7 +1532,8 @@ fn four_ways(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> [Vec<f
             &mut r[0][..len],
             Loop::Batched,
             None,
-        );
+        )
+        .unwrap();
         spec.cast(
             vol,
             k,
@@ -1540,7 +1542,8 @@ fn four_ways(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> [Vec<f
             &mut r[1][..len],
             Loop::OneSample,
             None,
-        );
+        )
+        .unwrap();
         let mut ignore = |_: &SampleInfo| {};
         let trace = Some(&mut ignore as &mut dyn FnMut(&SampleInfo));
         spec.cast(
@@ -1551,7 +1554,8 @@ fn four_ways(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, k: KernelName) -> [Vec<f
             &mut r[2][..len],
             Loop::OneSample,
             trace,
-        );
+        )
+        .unwrap();
         for (o, x) in out[1..].iter_mut().zip(&r) {
             o.extend_from_slice(&x[..len]);
         }

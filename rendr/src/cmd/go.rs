@@ -234,7 +234,12 @@ pub static SPEC: CmdSpec = CmdSpec {
 };
 
 /// `-db`: prints the ray through pixel `px` and every sample of it (the one-sample loop).
-fn trace_pixel(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName, px: [u32; 2]) {
+fn trace_pixel(
+    spec: &RenderSpec<'_>,
+    vol: AnyVolume<'_>,
+    kernel: KernelName,
+    px: [u32; 2],
+) -> anyhow::Result<()> {
     let [hi, vi] = px;
     let g = spec.ray_geom(hi, vi);
     outln!("pixel ({hi}, {vi}):");
@@ -289,9 +294,10 @@ fn trace_pixel(spec: &RenderSpec<'_>, vol: AnyVolume<'_>, kernel: KernelName, px
         &mut out,
         Loop::OneSample,
         Some(&mut cb),
-    );
+    )?;
     let r: Vec<f64> = out.iter().map(|&x| x as f64).collect();
     outln!("result: {}", list6(&r));
+    Ok(())
 }
 
 pub fn run(a: &Args) -> anyhow::Result<()> {
@@ -696,8 +702,7 @@ pub fn run_cached(
                 db[1]
             );
         }
-        trace_pixel(&spec, vol.view(), kernel, [db[0] as u32, db[1] as u32]);
-        return Ok(());
+        return trace_pixel(&spec, vol.view(), kernel, [db[0] as u32, db[1] as u32]);
     }
     if a.flag("petc") {
         eprint!("rendr go: press Enter to continue ");
