@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::nrrd::{self, Data, Nrrd, WriteOptions};
 use crate::output::Output;
-use crate::{Error, Result};
+use crate::{Error, ErrorKind, Result};
 
 /// An image of `channels` floats per pixel, `size[0]` × `size[1]` pixels, top row first.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,6 +17,27 @@ pub struct Image {
     pub channels: usize,
     /// Width, height.
     pub size: [usize; 2],
+}
+
+impl Image {
+    /// Checks that the samples fill the image exactly: `channels` (at least one) floats
+    /// for each of its pixels.
+    ///
+    /// # Errors
+    /// [`ErrorKind::Output`] when they do not.
+    pub fn check(&self) -> Result<()> {
+        let [w, h] = self.size;
+        let need = w.checked_mul(h).and_then(|n| n.checked_mul(self.channels));
+        if self.channels == 0 || need != Some(self.data.len()) {
+            return Err(Error::msg(format!(
+                "an image of {w} x {h} pixels of {} channels cannot be made of {} samples",
+                self.channels,
+                self.data.len()
+            ))
+            .with_kind(ErrorKind::Output));
+        }
+        Ok(())
+    }
 }
 
 /// Whether `path` asks for PNG output.
@@ -40,20 +61,22 @@ pub fn quantize(v: f64, min: f64, max: f64) -> u8 {
 /// first channel.
 ///
 /// # Errors
-/// As [`encode_png`].
+/// As [`Image::check`] and [`encode_png`].
 pub fn png_bytes(img: &Image, range: Option<(f64, f64)>) -> Result<Vec<u8>> {
-    let (buf, color) = png_pixels(img, range);
+    let (buf, color) = png_pixels(img, range)?;
     encode_png(&buf, img.size[0], img.size[1], color)
 }
 
 /// The 8-bit pixels [`png_bytes`] encodes (the same quantization), with their layout.
-pub fn png_pixels(img: &Image, range: Option<(f64, f64)>) -> (Vec<u8>, PngColor) {
-    let [w, h] = img.size;
+///
+/// # Errors
+/// As [`Image::check`].
+pub fn png_pixels(img: &Image, range: Option<(f64, f64)>) -> Result<(Vec<u8>, PngColor)> {
+    img.check()?;
     let c = img.channels;
-    let npx = w * h;
     let (buf, color): (Vec<u8>, PngColor) = match c {
         4 => {
-            let mut b = Vec::with_capacity(npx * 3);
+            let mut b = Vec::with_capacity(img.data.len() / 4 * 3);
             for p in img.data.chunks_exact(4) {
                 for k in 0..3 {
                     let v = (p[k] * p[3]) as f64;
@@ -81,7 +104,7 @@ pub fn png_pixels(img: &Image, range: Option<(f64, f64)>) -> (Vec<u8>, PngColor)
             )
         }
     };
-    (buf, color)
+    Ok((buf, color))
 }
 
 /// Encodes frames of 8-bit pixels (each `w` × `h` of `color`, top row first) as an
@@ -89,8 +112,8 @@ pub fn png_pixels(img: &Image, range: Option<(f64, f64)>) -> (Vec<u8>, PngColor)
 /// support show the first frame.
 ///
 /// # Errors
-/// No frames, frames of the wrong length, a frame rate outside 1..=1000, or an encoder
-/// failure; without the `png` cargo feature.
+/// No frames, a size a PNG cannot have, frames of the wrong length, a frame rate outside
+/// 1..=1000, or an encoder failure; without the `png` cargo feature.
 pub fn encode_apng(
     frames: &[Vec<u8>],
     w: usize,
@@ -98,9 +121,12 @@ pub fn encode_apng(
     color: PngColor,
     fps: u16,
 ) -> Result<Vec<u8>> {
-    let per = w * h * if color == PngColor::Rgb { 3 } else { 1 };
+    let per = png_len(w, h, color)?;
     if frames.is_empty() || frames.iter().any(|f| f.len() != per) {
-        return Err(Error::msg("an animated PNG needs frames of one size"));
+        return Err(Error::msg(format!(
+            "an animated PNG needs frames of {per} bytes ({w} x {h} pixels)"
+        ))
+        .with_kind(ErrorKind::Output));
     }
     if !(1..=1000).contains(&fps) {
         return Err(Error::msg(format!("frame rate {fps} is not in 1..=1000")));
@@ -144,12 +170,38 @@ pub enum PngColor {
     Rgb,
 }
 
+/// The bytes of `w` × `h` 8-bit pixels of `color`.
+///
+/// # Errors
+/// [`ErrorKind::Output`] for a size a PNG cannot have (a side of 0 or beyond 2^32 - 1).
+fn png_len(w: usize, h: usize, color: PngColor) -> Result<usize> {
+    let side = |n: usize| n > 0 && u32::try_from(n).is_ok();
+    let bytes = w
+        .checked_mul(h)
+        .and_then(|n| n.checked_mul(if color == PngColor::Rgb { 3 } else { 1 }));
+    match bytes {
+        Some(n) if side(w) && side(h) => Ok(n),
+        _ => {
+            Err(Error::msg(format!("a PNG cannot be {w} x {h} pixels"))
+                .with_kind(ErrorKind::Output))
+        }
+    }
+}
+
 /// Encodes 8-bit pixels (`w` × `h`, top row first) as PNG bytes.
 ///
 /// # Errors
-/// When the encoder fails (a buffer of the wrong length), or without the `png` cargo
-/// feature.
+/// [`ErrorKind::Output`] for a size a PNG cannot have or a buffer of the wrong length;
+/// an encoder failure; without the `png` cargo feature.
 pub fn encode_png(buf: &[u8], w: usize, h: usize, color: PngColor) -> Result<Vec<u8>> {
+    let need = png_len(w, h, color)?;
+    if buf.len() != need {
+        return Err(Error::msg(format!(
+            "{} bytes of pixels for a {w} x {h} PNG that takes {need}",
+            buf.len()
+        ))
+        .with_kind(ErrorKind::Output));
+    }
     #[cfg(feature = "png")]
     {
         let color = match color {
@@ -246,13 +298,14 @@ pub fn write_image(
 /// `.png`).
 ///
 /// # Errors
-/// PNG encoding and write failures.
+/// As [`Image::check`]; PNG encoding and write failures.
 pub fn write_image_to(
     img: Image,
     out: Output,
     content: &str,
     range: Option<(f64, f64)>,
 ) -> Result<()> {
+    img.check()?;
     if is_png(out.path()) {
         return commit_bytes(out, &png_bytes(&img, range)?);
     }

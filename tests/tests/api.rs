@@ -414,3 +414,53 @@ fn misshapen_calls_are_errors_not_panics() {
     assert!(lanes.convolve::<f32, rnd_core::kernel::Tent, false>(&v, Simd::detect(), &mut out));
     assert!(out.iter().all(|o| o[0] == 1.0), "{out:?}");
 }
+
+/// The image writers check shapes before they encode or write: samples that do not fill
+/// the image (or an image of no channels), pixels that do not fill a PNG, and a PNG size
+/// outside 1..2^32 are Output errors, never a panic, and nothing is written.
+#[test]
+fn misshapen_images_are_errors_not_panics() {
+    use rnd_std::image_out::{encode_apng, encode_png, png_bytes, write_image, Image, PngColor};
+    use rnd_std::ErrorKind;
+    let img = |data: Vec<f32>, channels, size| Image {
+        data,
+        channels,
+        size,
+    };
+    let good = img(vec![0.5; 2 * 3 * 4], 4, [2, 3]);
+    assert!(png_bytes(&good, None).is_ok());
+    let dir = std::env::temp_dir().join(format!("rnd-api-img-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (bad, what) in [
+        (img(vec![0.5; 23], 4, [2, 3]), "23 samples"),
+        (img(vec![0.5; 25], 4, [2, 3]), "25 samples"),
+        (img(vec![0.5; 6], 0, [2, 3]), "0 channels"),
+        (img(vec![0.5; 6], 1, [usize::MAX, 3]), "6 samples"),
+    ] {
+        let e = png_bytes(&bad, None).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Output, "{e}");
+        assert!(e.to_string().contains(what), "{e}");
+        for name in ["x.png", "x.nrrd"] {
+            let e = write_image(bad.clone(), &dir.join(name), "x", None).unwrap_err();
+            assert_eq!(e.kind, ErrorKind::Output, "{e}");
+            assert!(!dir.join(name).exists());
+        }
+    }
+    assert!(std::fs::read_dir(&dir).unwrap().next().is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+    // Pixels for a PNG: exactly w·h (grey) or 3·w·h (RGB) bytes, sides in 1..2^32.
+    assert!(encode_png(&[7; 6], 2, 3, PngColor::Grey).is_ok());
+    assert!(encode_png(&[7; 18], 2, 3, PngColor::Rgb).is_ok());
+    for (buf, w, h, c) in [
+        (vec![7; 5], 2, 3, PngColor::Grey),
+        (vec![7; 6], 2, 3, PngColor::Rgb),
+        (vec![], 0, 3, PngColor::Grey),
+        (vec![7; 2], (1 << 32) + 1, 1, PngColor::Grey),
+        (vec![7; 2], usize::MAX, 2, PngColor::Rgb),
+    ] {
+        let e = encode_png(&buf, w, h, c).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Output, "{e}");
+        let e = encode_apng(&[buf], w, h, c, 10).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Output, "{e}");
+    }
+}

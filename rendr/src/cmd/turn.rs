@@ -340,7 +340,7 @@ fn render(a: &Args, rank: usize, size: usize) -> anyhow::Result<Rendered> {
             rnd_std::nrrd::write_to(&nr, Default::default(), &mut frame.file)?;
         }
         if !nrrd || apng {
-            let (buf, col) = png_pixels(&img, q);
+            let (buf, col) = png_pixels(&img, q)?;
             colour = col;
             if !nrrd {
                 frame.file = encode_png(&buf, img.size[0], img.size[1], col)?;
