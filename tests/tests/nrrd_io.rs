@@ -474,3 +474,68 @@ fn mapped_volumes_equal_read_ones() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The header's fields are public, so a caller can make it disagree with the data:
+/// such an array is refused (a Format error naming the field) before a byte is written,
+/// as NRRD or as text (where a first axis of 0 would otherwise never end a row), and a
+/// file is left unwritten.
+#[test]
+fn headers_that_disagree_with_the_data_are_not_written() {
+    let good = || {
+        let mut n = Nrrd::new(vec![2, 3], Data::F32(vec![0.5; 6])).unwrap();
+        n.header.space = Some("3D-right-handed".into());
+        n.header.space_directions = Some(vec![Some(vec![1.0, 0.0, 0.0]), None]);
+        n.header.space_origin = Some(vec![0.0; 3]);
+        n.header.spacings = Some(vec![f64::NAN, 1.0]);
+        n.header.labels = Some(vec!["x".into(), "y".into()]);
+        n
+    };
+    let mut out = Vec::new();
+    nrrd::write_to(&good(), WriteOptions::default(), &mut out).unwrap();
+    let back = nrrd::read_bytes(&out, Path::new("/nonexistent")).unwrap();
+    assert_eq!(back.sizes(), &[2, 3]);
+    type Edit = fn(&mut Nrrd);
+    let edits: &[(Edit, &str)] = &[
+        (|n| n.header.scalar = ScalarType::F64, "type double"),
+        (|n| n.header.sizes = vec![3, 3], "sizes [3, 3]"),
+        (|n| n.header.sizes = vec![], "sizes []"),
+        (|n| n.header.sizes = vec![0, 6], "sizes [0, 6]"),
+        (|n| n.header.sizes = vec![1; 17], "sizes [1, 1"),
+        (|n| n.header.sizes = vec![usize::MAX, 2], "sizes ["),
+        (
+            |n| n.header.labels = Some(vec!["x".into()]),
+            "labels: 1 entries",
+        ),
+        (
+            |n| n.header.spacings = Some(vec![1.0; 3]),
+            "spacings: 3 entries",
+        ),
+        (
+            |n| n.header.space_origin = Some(vec![0.0; 2]),
+            "space origin: 2 values",
+        ),
+        (
+            |n| n.header.space_directions = Some(vec![None, Some(vec![1.0; 4])]),
+            "space directions: 4 values",
+        ),
+    ];
+    let dir = std::env::temp_dir().join(format!("rnd-nrrd-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (edit, what) in edits {
+        let mut n = good();
+        edit(&mut n);
+        let mut out = Vec::new();
+        let e = nrrd::write_to(&n, WriteOptions::default(), &mut out).unwrap_err();
+        assert_eq!(e.kind, rnd_std::ErrorKind::Format, "{e}");
+        assert!(e.to_string().contains(what), "{what}: {e}");
+        assert!(out.is_empty());
+        assert!(
+            nrrd::write_text(&n, &mut out).is_err() && out.is_empty(),
+            "{what}"
+        );
+        let path = dir.join("x.nrrd");
+        assert!(nrrd::write(&n, &path, WriteOptions::default()).is_err());
+        assert!(!path.exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -16,7 +16,9 @@ pub use read::{
     HEADER_MAX, SKIP_MAX, TEXT_MAX,
 };
 pub use text::{parse_text, write_text};
-pub use write::{volume_nrrd, write, write_to, write_volume, WriteOptions, CONTENT_MAX};
+pub use write::{
+    check_header, volume_nrrd, write, write_to, write_volume, WriteOptions, CONTENT_MAX,
+};
 
 /// Samples of any NRRD scalar type.
 #[derive(Debug, Clone, PartialEq)]

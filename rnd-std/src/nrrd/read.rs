@@ -1033,7 +1033,7 @@ fn vector_items(v: &str) -> Vec<String> {
 }
 
 /// Largest number of dimensions accepted.
-const MAX_DIM: usize = 16;
+pub(crate) const MAX_DIM: usize = 16;
 
 /// The header fields a NRRD may give once each.
 const KNOWN_FIELDS: &[&str] = &[

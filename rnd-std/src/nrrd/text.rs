@@ -72,8 +72,10 @@ pub fn parse_text(text: &str) -> Result<Nrrd> {
 /// Writes a 1-D or 2-D array as text: key/values as `#key:=value`, then one row per line.
 ///
 /// # Errors
-/// [`crate::ErrorKind::Io`] when writing fails.
+/// As [`super::check_header`]; more than two axes; [`crate::ErrorKind::Io`] when
+/// writing fails.
 pub fn write_text(n: &Nrrd, w: &mut dyn Write) -> Result<()> {
+    super::check_header(n)?;
     let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
     let sizes = n.sizes();
     let cols = match sizes.len() {

@@ -69,9 +69,11 @@ fn content_line(c: &str) -> String {
 /// each (control characters escaped), the content cut to [`CONTENT_MAX`] characters.
 ///
 /// # Errors
-/// [`crate::ErrorKind::Io`] when writing fails; without the `gzip`/`bzip2` feature,
-/// those encodings are refused.
+/// [`crate::ErrorKind::Format`], writing nothing, when the header does not describe the
+/// data ([`check_header`]); [`crate::ErrorKind::Io`] when writing fails; without the
+/// `gzip`/`bzip2` feature, those encodings are refused.
 pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
+    check_header(n)?;
     let h = &n.header;
     let io = |e: std::io::Error| Error::msg(format!("write failed: {e}"));
     let mut s = String::from("NRRD0004\n");
@@ -182,6 +184,60 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
             }
             Encoding::Ascii => unreachable!("handled above"),
         },
+    }
+    Ok(())
+}
+
+/// Checks that `n`'s header (its fields are public) describes its data as a reader
+/// needs: the data's sample type, 1 to 16 sizes (the dimensions a reader takes) whose product is the sample count, one
+/// entry per axis in each per-axis field, and space vectors as long as the space's
+/// dimension.
+///
+/// # Errors
+/// [`crate::ErrorKind::Format`] naming the field that disagrees.
+pub fn check_header(n: &Nrrd) -> Result<()> {
+    let h = &n.header;
+    let bad = |m: String| Err(Error::msg(format!("NRRD header to write: {m}")));
+    if h.scalar != n.data.scalar_type() {
+        return bad(format!(
+            "type {} but the samples are {}",
+            h.scalar.as_str(),
+            n.data.scalar_type().as_str()
+        ));
+    }
+    let count = h.sizes.iter().try_fold(1usize, |a, &s| a.checked_mul(s));
+    if !(1..=super::read::MAX_DIM).contains(&h.sizes.len()) || count != Some(n.data.len()) {
+        return bad(format!("sizes {:?} for {} samples", h.sizes, n.data.len()));
+    }
+    let dim = h.sizes.len();
+    let per_axis = [
+        (
+            "space directions",
+            h.space_directions.as_ref().map(Vec::len),
+        ),
+        ("spacings", h.spacings.as_ref().map(Vec::len)),
+        ("axis mins", h.axis_mins.as_ref().map(Vec::len)),
+        ("axis maxs", h.axis_maxs.as_ref().map(Vec::len)),
+        ("centerings", h.centerings.as_ref().map(Vec::len)),
+        ("kinds", h.kinds.as_ref().map(Vec::len)),
+        ("labels", h.labels.as_ref().map(Vec::len)),
+    ];
+    for (field, len) in per_axis {
+        if let Some(l) = len.filter(|&l| l != dim) {
+            return bad(format!("{field}: {l} entries for {dim} axes"));
+        }
+    }
+    if let Some(sd) = h.space_dim() {
+        let dirs = h.space_directions.iter().flatten().flatten();
+        let vectors = dirs.map(|v| ("space directions", v));
+        for (field, v) in vectors.chain(h.space_origin.iter().map(|o| ("space origin", o))) {
+            if v.len() != sd {
+                return bad(format!(
+                    "{field}: {} values in a space of dimension {sd}",
+                    v.len()
+                ));
+            }
+        }
     }
     Ok(())
 }
