@@ -597,11 +597,14 @@ pub fn load_volume_region(
 /// Builds a volume from an in-memory NRRD.
 ///
 /// # Errors
-/// [`crate::ErrorKind::Format`] when the array is not 3-D (after dropping a leading
+/// [`crate::ErrorKind::Format`] when the header does not describe the data
+/// ([`crate::nrrd::check_header`]), the array is not 3-D (after dropping a leading
 /// axis of size 1) or its geometry is unusable; [`crate::ErrorKind::Memory`] when
 /// converting the samples needs more memory than there is.
 #[allow(clippy::unnecessary_cast)] // each_data! covers f32 and f64 too
 pub fn volume_from_nrrd(n: Nrrd) -> Result<VolumeBuf> {
+    // (A header made by hand may disagree with its data; one read from a file cannot.)
+    crate::nrrd::check_header(&n)?;
     let Geometry {
         sizes,
         itow,

@@ -539,3 +539,25 @@ fn headers_that_disagree_with_the_data_are_not_written() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A volume made from an array whose header disagrees with its data (made by hand) is a
+/// Format error, not a panic on a short per-axis field.
+#[test]
+fn volumes_from_disagreeing_headers_are_errors() {
+    let n = || Nrrd::new(vec![2, 2, 2], Data::F32(vec![1.0; 8])).unwrap();
+    assert!(rnd_std::volume_io::volume_from_nrrd(n()).is_ok());
+    type Edit = fn(&mut Nrrd);
+    let edits: &[Edit] = &[
+        |n| n.header.space_directions = Some(vec![Some(vec![1.0, 0.0, 0.0])]),
+        |n| n.header.spacings = Some(vec![1.0]),
+        |n| n.header.axis_mins = Some(vec![0.0; 2]),
+        |n| n.header.sizes = vec![2, 2, 3],
+        |n| n.header.scalar = ScalarType::I16,
+    ];
+    for edit in edits {
+        let mut bad = n();
+        edit(&mut bad);
+        let e = rnd_std::volume_io::volume_from_nrrd(bad).unwrap_err();
+        assert_eq!(e.kind, rnd_std::ErrorKind::Format, "{e}");
+    }
+}
