@@ -836,7 +836,11 @@ impl<'a> RenderSpec<'a> {
     ) -> Result<()> {
         self.check_volume(vol.grid())?;
         let [w, h] = self.size();
-        let need = rows.len() * w as usize * per_pixel;
+        // (Saturating: rows beyond the image may be many; they are refused below.)
+        let need = rows
+            .len()
+            .saturating_mul(w as usize)
+            .saturating_mul(per_pixel);
         if rows.start > rows.end || rows.end > h || items != need {
             return Err(Error::new(
                 ErrorKind::Render,
