@@ -59,13 +59,18 @@ impl Affine4 {
         )
     }
 
-    /// Entry at row `r`, column `c`.
+    /// Entry at row `r`, column `c` (NaN when either is 4 or more: no entry).
     #[inline(always)]
     pub fn at(&self, r: usize, c: usize) -> f64 {
-        self.m[4 * r + c]
+        if r < 4 && c < 4 {
+            self.m[4 * r + c]
+        } else {
+            f64::NAN
+        }
     }
 
-    /// Column `c` of the upper 3×4 block (a direction for c < 3, the translation for c = 3).
+    /// Column `c` of the upper 3×4 block (a direction for c < 3, the translation for c = 3;
+    /// NaNs for c ≥ 4).
     pub fn column3(&self, c: usize) -> [f64; 3] {
         [self.at(0, c), self.at(1, c), self.at(2, c)]
     }
@@ -211,6 +216,21 @@ mod tests {
         let i = a.affine_inverse().unwrap();
         assert_eq!(i.point([1., 2., 3.]), [0.0, 0.0, 0.0]);
         assert!(a.mul(&i).frobenius_from_identity() < 1e-15);
+    }
+
+    #[test]
+    fn entries_are_read_only_inside() {
+        let a = Affine4::from_rows(core::array::from_fn(|i| i as f64));
+        for r in 0..4 {
+            for c in 0..4 {
+                assert_eq!(a.at(r, c), (4 * r + c) as f64);
+            }
+        }
+        // (Row 0, column 5 would be entry 5 of the storage: row 1's.)
+        for (r, c) in [(0, 4), (0, 5), (4, 0), (usize::MAX, usize::MAX)] {
+            assert!(a.at(r, c).is_nan(), "({r}, {c})");
+        }
+        assert!(a.column3(7).iter().all(|x| x.is_nan()));
     }
 
     #[test]
