@@ -596,9 +596,9 @@ impl<const S: usize> Lanes<S> {
         simd: crate::simd::Simd,
         out: &mut [[f32; 4]; LANES],
     ) -> bool {
-        let last = (S - 1) * (1 + vol.row_stride() + vol.slice_stride());
-        let held = |b: &usize| b.checked_add(last).is_some_and(|e| e < vol.data().len());
-        if self.is_empty() || !self.base[..self.len].iter().all(held) {
+        let (s0, s01) = (vol.row_stride(), vol.slice_stride());
+        let end = crate::simd::Supports::<V, S, LANES>::end(vol.data().len(), s0, s01);
+        if self.is_empty() || self.base[..self.len].iter().any(|&b| b >= end) {
             return false;
         }
         self.sums::<V, K, G>(vol, simd, out);

@@ -346,8 +346,7 @@ impl<'d, V: crate::voxel::Voxel, const S: usize, const N: usize> Supports<'d, V,
     /// `data` (the callers' inside rule makes them fit).
     #[inline(always)]
     pub(crate) fn new(data: &'d [V], base: [usize; N], s0: usize, s01: usize) -> Self {
-        let last = (S - 1) * (1 + s0 + s01);
-        let end = data.len().saturating_sub(last);
+        let end = Self::end(data.len(), s0, s01);
         // (A fold without early exit: compares side by side, one branch.)
         assert!(base.iter().fold(true, |ok, &b| ok & (b < end)));
         Supports {
@@ -356,6 +355,13 @@ impl<'d, V: crate::voxel::Voxel, const S: usize, const N: usize> Supports<'d, V,
             s0,
             s01,
         }
+    }
+
+    /// The bound every support's first voxel must lie below for the support to end
+    /// inside data of `len` voxels (rows `s0` apart, slices `s01`).
+    #[inline(always)]
+    pub(crate) fn end(len: usize, s0: usize, s01: usize) -> usize {
+        len.saturating_sub((S - 1) * (1 + s0 + s01))
     }
 
     /// Row `j` of slice `k` of sample `i`'s support (S voxels along x), as f32.
