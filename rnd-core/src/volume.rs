@@ -20,7 +20,8 @@ use crate::voxel::Voxel;
 /// let data = [0i16, 1, 2, 3, 4, 5, 6, 7];
 /// let vol = Volume::new(&data, [2, 2, 2], Affine4::from_spacing([0.5, 0.5, 2.0], [0.0; 3]))
 ///     .unwrap();
-/// assert_eq!(vol.at(1, 1, 1), 7);
+/// assert_eq!(vol.get(1, 1, 1), Some(7));
+/// assert_eq!(vol.get(2, 0, 0), None); // not sample (0, 1, 0)
 /// assert_eq!(vol.itow().point([1.0, 1.0, 1.0]), [0.5, 0.5, 2.0]);
 /// assert!(Volume::new(&data[..7], [2, 2, 2], Affine4::IDENTITY).is_err());
 /// ```
@@ -119,7 +120,8 @@ impl<'a, V: Voxel> Volume<'a, V> {
     ///
     /// let data = [0i16, 1, -1, 2, 3, -1, 4, 5, -1, 6, 7, -1]; // rows of 2 samples, 1 pad
     /// let vol = Volume::padded(&data, [2, 2, 2], 3, Affine4::IDENTITY).unwrap();
-    /// assert_eq!((vol.at(1, 1, 1), vol.row_stride()), (7, 3));
+    /// assert_eq!((vol.get(1, 1, 1), vol.row_stride()), (Some(7), 3));
+    /// assert_eq!(vol.get(2, 0, 0), None); // the padding is not a sample
     /// assert_eq!(vol.min_max(), (0.0, 7.0));
     /// assert!(Volume::padded(&data, [2, 2, 2], 1, Affine4::IDENTITY).is_err());
     /// assert!(Volume::padded(&data, [0, 2, 2], 3, Affine4::IDENTITY).is_err());
@@ -149,7 +151,8 @@ impl<'a, V: Voxel> Volume<'a, V> {
     /// let b = Brick { lo: [1, 2, 0], hi: [3, 4, 1] };
     /// let vol = Volume::region(&part, [4, 4, 3], b, Affine4::IDENTITY).unwrap();
     /// assert_eq!((vol.sizes(), vol.origin(), vol.grid()), ([2, 2, 1], [1, 2, 0], [4, 4, 3]));
-    /// assert_eq!(vol.at(1, 1, 0), 8.0);
+    /// assert_eq!(vol.get(1, 1, 0), Some(8.0));
+    /// assert_eq!(vol.get(0, 0, 1), None); // the box has one slice
     /// ```
     ///
     /// # Errors
@@ -221,13 +224,15 @@ impl<'a, V: Voxel> Volume<'a, V> {
         &self.wtoi
     }
     /// Sample at integer index (i, j, k) of the samples held (for a [`Volume::region`],
-    /// counted from its origin).
-    ///
-    /// # Panics
-    /// When (i, j, k) is outside the samples held.
-    #[inline(always)]
-    pub fn at(&self, i: usize, j: usize, k: usize) -> V {
-        self.data[i + self.row * (j + self.sizes[1] * k)]
+    /// counted from its origin); None when an index is outside its axis (never another
+    /// sample, nor a [`Volume::padded`] row's padding).
+    #[inline]
+    pub fn get(&self, i: usize, j: usize, k: usize) -> Option<V> {
+        let [s0, s1, s2] = self.sizes;
+        if i >= s0 || j >= s1 || k >= s2 {
+            return None;
+        }
+        self.data.get(i + self.row * (j + s1 * k)).copied()
     }
     /// The world positions of the grid's eight corner samples (index 0 or size − 1 on
     /// each axis), e.g. for [`crate::camera::CameraSpec::framing`].
@@ -281,8 +286,8 @@ pub(crate) fn corners(itow: &Affine4, sizes: [usize; 3]) -> [[f64; 3]; 8] {
 ///     if r2 < 144.0 { 1.0f32 } else { 0.0 }
 /// })
 /// .unwrap();
-/// assert_eq!(vol.view().at(16, 16, 16), 1.0);
-/// assert_eq!(vol.view().at(0, 0, 0), 0.0);
+/// assert_eq!(vol.view().get(16, 16, 16), Some(1.0));
+/// assert_eq!(vol.view().get(0, 0, 0), Some(0.0));
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct OwnedVolume<V: Voxel> {
@@ -374,5 +379,32 @@ impl<V: Voxel> OwnedVolume<V> {
     /// The samples, giving up the volume.
     pub fn into_vec(self) -> Vec<V> {
         self.data
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn get_reads_only_samples_held() {
+        // 3 x 2 x 2 samples numbered i + 10 j + 100 k, rows padded to 5 with -1.
+        let mut data = alloc::vec![-1i16; 5 * 2 * 2];
+        for (k, j, i) in
+            (0..2).flat_map(|k| (0..2).flat_map(move |j| (0..3).map(move |i| (k, j, i))))
+        {
+            data[i + 5 * (j + 2 * k)] = (i + 10 * j + 100 * k) as i16;
+        }
+        let vol = Volume::padded(&data, [3, 2, 2], 5, Affine4::IDENTITY).unwrap();
+        for k in 0..4 {
+            for j in 0..4 {
+                for i in 0..7 {
+                    let want = (i < 3 && j < 2 && k < 2).then_some((i + 10 * j + 100 * k) as i16);
+                    assert_eq!(vol.get(i, j, k), want, "({i}, {j}, {k})");
+                }
+            }
+        }
+        assert_eq!(vol.get(usize::MAX, 0, 0), None);
+        assert_eq!(vol.get(0, usize::MAX, usize::MAX), None);
     }
 }

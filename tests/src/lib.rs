@@ -127,7 +127,10 @@ pub fn naive_convo<V: rnd_core::voxel::Voxel>(
     for kk in lo[2]..lo[2] + s {
         for jj in lo[1]..lo[1] + s {
             for ii in lo[0]..lo[0] + s {
-                let d = vol.at(ii as usize, jj as usize, kk as usize).to_f32() as f64;
+                let Some(d) = vol.get(ii as usize, jj as usize, kk as usize) else {
+                    return (false, 0.0, [0.0; 3]);
+                };
+                let d = d.to_f32() as f64;
                 let (dx, dy, dz) = (x[0] - ii as f64, x[1] - jj as f64, x[2] - kk as f64);
                 let (kx, ky, kz) = (k.eval(dx, 0), k.eval(dy, 0), k.eval(dz, 0));
                 v += d * kx * ky * kz;
