@@ -317,15 +317,18 @@ fn threaded_raw_read_equals_one_thread() {
                     let many = nrrd::read_with_threads(&p, threads).unwrap();
                     assert_eq!(many.sizes(), one.sizes());
                     assert!(
-                        (0..n).all(
-                            |i| many.data.get_f64(i).to_bits() == one.data.get_f64(i).to_bits()
-                        ),
+                        many.data
+                            .iter_f64()
+                            .map(f64::to_bits)
+                            .eq(one.data.iter_f64().map(f64::to_bits)),
                         "{t} big={big} {name} threads={threads}"
                     );
                 }
-                assert!(
-                    (0..n).all(|i| one.data.get_f64(i).to_bits() == a.data.get_f64(i).to_bits())
-                );
+                assert!(one
+                    .data
+                    .iter_f64()
+                    .map(f64::to_bits)
+                    .eq(a.data.iter_f64().map(f64::to_bits)));
             }
         }
     }

@@ -87,15 +87,27 @@ impl Data {
             Data::F64(_) => ScalarType::F64,
         }
     }
-    /// Sample `i` as f64.
+    /// Sample `i` as f64, or `None` when there is no sample `i` (`i >= len()`).
+    ///
+    /// ```
+    /// use rnd_std::nrrd::Data;
+    /// let d = Data::I16(vec![-3, 7]);
+    /// assert_eq!(d.get_f64(1), Some(7.0));
+    /// assert_eq!(d.get_f64(2), None);
+    /// ```
     #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
-    pub fn get_f64(&self, i: usize) -> f64 {
-        each_data!(self, v => v[i] as f64)
+    pub fn get_f64(&self, i: usize) -> Option<f64> {
+        each_data!(self, v => v.get(i).map(|&x| x as f64))
+    }
+    /// The samples in order, each as f64 (exact for every type but 64-bit
+    /// integers beyond 2^53, which round).
+    #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
+    pub fn iter_f64(&self) -> Box<dyn Iterator<Item = f64> + '_> {
+        each_data!(self, v => Box::new(v.iter().map(|&x| x as f64)))
     }
     /// All samples as f64.
-    #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
     pub fn to_f64(&self) -> Vec<f64> {
-        each_data!(self, v => v.iter().map(|&x| x as f64).collect())
+        self.iter_f64().collect()
     }
     /// All samples as f32 (rounded for wider types).
     #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too

@@ -91,20 +91,50 @@ pub fn write_text(n: &Nrrd, w: &mut dyn Write) -> Result<()> {
     for (k, v) in &n.header.key_values {
         writeln!(w, "#{k}:={v}").map_err(io)?;
     }
-    let len = n.data.len();
-    let mut i = 0;
-    while i < len {
-        let row: Vec<String> = (i..(i + cols).min(len)).map(|j| fmt_num(n, j)).collect();
+    // f32 prints its own shortest digits, not those of its f64 widening.
+    let texts: Vec<String> = match &n.data {
+        Data::F32(v) => v.iter().map(|x| x.to_string()).collect(),
+        d => d.iter_f64().map(|x| x.to_string()).collect(),
+    };
+    for row in texts.chunks(cols.max(1)) {
         writeln!(w, "{}", row.join(" ")).map_err(io)?;
-        i += cols;
     }
     Ok(())
 }
 
-fn fmt_num(n: &Nrrd, j: usize) -> String {
-    match &n.data {
-        Data::F32(v) => format!("{}", v[j]),
-        Data::F64(v) => format!("{}", v[j]),
-        d => format!("{}", d.get_f64(j)),
+#[cfg(test)]
+mod tests {
+    use super::super::{write_to, Data, Encoding, Endian, Nrrd, WriteOptions};
+    use super::write_text;
+
+    fn text(n: &Nrrd) -> String {
+        let mut out = Vec::new();
+        write_text(n, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    fn ascii_body(n: &Nrrd) -> String {
+        let mut out = Vec::new();
+        let opt = WriteOptions {
+            encoding: Encoding::Ascii,
+            endian: Endian::Little,
+        };
+        write_to(n, opt, &mut out).unwrap();
+        let s = String::from_utf8(out).unwrap();
+        s[s.find("\n\n").unwrap() + 2..].to_string()
+    }
+
+    #[test]
+    fn samples_print_in_rows_with_their_own_digits() {
+        // f32 prints its shortest digits (0.1, not 0.10000000149011612).
+        let f = Nrrd::new(vec![2, 2], Data::F32(vec![0.1, -2.0, 1.5e-8, 3.25])).unwrap();
+        assert_eq!(text(&f), "0.1 -2\n0.000000015 3.25\n");
+        assert_eq!(ascii_body(&f), "0.1 -2\n0.000000015 3.25\n");
+        let i = Nrrd::new(vec![3, 1], Data::I16(vec![-3, 7, 32767])).unwrap();
+        assert_eq!(text(&i), "-3 7 32767\n");
+        assert_eq!(ascii_body(&i), "-3 7 32767\n");
+        let d = Nrrd::new(vec![3], Data::F64(vec![0.1, f64::NAN, f64::NEG_INFINITY])).unwrap();
+        assert_eq!(text(&d), "0.1\nNaN\n-inf\n");
+        assert_eq!(ascii_body(&d), "0.1 nan -inf\n");
     }
 }
