@@ -297,6 +297,36 @@ fn go_under_mpi_fills_the_time_channel() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `RENDR_VERBOSE_BRICKS` makes each rank say which samples it holds and whether it
+/// read them alone: the brick of the k-d split plus the kernel's ghost layers (bspln3:
+/// two below, three above), read by itself from a raw NRRD.
+#[test]
+fn go_under_mpi_reports_each_ranks_brick_on_request() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = rnd_tests::tmpdir("mpi-bricks");
+    sdg(&dir, ["45", "38", "31"], "syn.nrrd");
+    let (name, _, gm) = go_scenes().remove(2);
+    assert_eq!(name, "syn max gm");
+    let mut m: Vec<String> = ["-x", "RENDR_VERBOSE_BRICKS=1", "-np", "2", RENDR, "go"]
+        .map(String::from)
+        .to_vec();
+    m.extend(gm);
+    m.extend(["-nt", "1", "-o", "b.nrrd"].map(String::from));
+    let out = mpirun(&dir, &m);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    // 45 samples along the longest axis: rank 0 owns 0..22, rank 1 22..45.
+    for line in [
+        "rendr go: rank 0 of 2: samples [0, 0, 0]..[25, 38, 31] of [45, 38, 31], read alone",
+        "rendr go: rank 1 of 2: samples [20, 0, 0]..[45, 38, 31] of [45, 38, 31], read alone",
+    ] {
+        assert!(err.lines().any(|l| l == line), "no line {line:?} in {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn go_under_mpi_stops_on_one_failing_rank_and_refuses_what_it_cannot_split() {
     if !have_mpirun() {

@@ -189,7 +189,9 @@ pub static SPEC: CmdSpec = CmdSpec {
            casting every ray's stretch inside it; the partials are composited in ray \
            order and process 0 writes the image: max, min and median give the image of \
            one process bit for bit, sum, mean and over the same up to float rounding \
-           (docs/SCALING.md); -db is refused there (run it without mpirun).\n\
+           (docs/SCALING.md); -db is refused there (run it without mpirun). With \
+           RENDR_VERBOSE_BRICKS=1 (mpirun -x) each process prints the samples it holds \
+           and whether it read them alone.\n\
            A NRRD whose samples are raw float or short in this machine's byte order is \
            used in place through a memory map of the file (no copy): do not change the \
            file while it renders, or set RENDR_MMAP=0 to read it into memory instead \
