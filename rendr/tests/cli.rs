@@ -42,6 +42,12 @@ fn fails(dir: &Path, args: &[&str], frag: &str, out: Option<&str>) {
         "rendr {args:?}: stderr {err:?} lacks {frag:?}"
     );
     assert!(!err.contains("panicked"), "{err}");
+    // (mgo announces each command it runs: those before the failing one did run.)
+    assert!(
+        o.stdout.is_empty() || args[0] == "mgo",
+        "rendr {args:?}: printed before failing: {:?}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     if let Some(f) = out {
         assert!(!dir.join(f).exists(), "rendr {args:?} left {f} behind");
     }

@@ -123,6 +123,12 @@ fn assert_refusal(r: &Ran, ctx: &str, frag: &str) {
     let lines = r.stderr.trim_end().lines().count();
     assert_eq!(lines, 1, "{ctx}: not one line: {:?}", r.stderr);
     assert!(!r.stderr.contains("panicked"), "{ctx}: {}", r.stderr);
+    // Nothing half-done on standard output either: a refusal prints no results first.
+    assert!(
+        r.stdout.is_empty(),
+        "{ctx}: printed before failing: {:?}",
+        String::from_utf8_lossy(&r.stdout)
+    );
 }
 
 /// A refusal: status 1, one stderr line containing `frag`, no panic, no temporary file,
@@ -1049,5 +1055,40 @@ fn skips_are_bounded_and_exact() {
         Some(&d.join("stream.nrrd")),
         Some(300),
         "passes over in a stream",
+    );
+}
+
+/// Rule: an empty file is named as empty (not "a text array with no numbers"), whether
+/// it is read as a volume, a matrix, a transfer function or from standard input.
+#[test]
+fn empty_files_are_called_empty() {
+    let d = scene("empty");
+    std::fs::write(d.join("empty.nrrd"), b"").unwrap();
+    let frag = "empty.nrrd: empty (0 bytes): neither a NRRD file nor a text array";
+    refused(&d, "info", &os(&["info", "empty.nrrd"]), None, None, frag);
+    refused(
+        &d,
+        "go",
+        &os(&["go", "@cam.txt", "-i", "empty.nrrd", "-o", "o.nrrd"]),
+        None,
+        None,
+        frag,
+    );
+    refused(&d, "4mi", &os(&["4mi", "empty.nrrd"]), None, None, frag);
+    refused(
+        &d,
+        "teval",
+        &os(&["teval", "empty.nrrd", "0.5"]),
+        None,
+        None,
+        frag,
+    );
+    refused(
+        &d,
+        "4mi from stdin",
+        &os(&["4mi", "-"]),
+        Some(&d.join("empty.nrrd")),
+        None,
+        "empty (0 bytes)",
     );
 }

@@ -9,8 +9,8 @@ pub static SPEC: CmdSpec = CmdSpec {
     name: "keval",
     about: "evaluate a kernel (and derivatives) at a position",
     info: "Prints Name(x) and, with -d, the derivatives dName(x), ddName(x). With -a, \
-           prints instead the per-sample weights one convolution axis uses at fractional \
-           position alpha, lowest index first.",
+           then also the per-sample weights one convolution axis uses at fractional \
+           position alpha, lowest index first (with -d, derivative weights too).",
     response_files: false,
     opts: &[
         flag(&["s"], "first print the kernel's support"),
@@ -54,6 +54,15 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     if d > 2 {
         anyhow::bail!("-d: {d} derivatives requested; only 0, 1 or 2 are known");
     }
+    let alpha: Option<f64> = if a.given("a") {
+        let al: f64 = a.get("a")?;
+        if !al.is_finite() {
+            anyhow::bail!("-a: alpha must be a finite fractional position (got {al})");
+        }
+        Some(al)
+    } else {
+        None
+    };
     if a.flag("s") {
         outln!("support({}) = {}", k.title(), k.support());
     }
@@ -61,11 +70,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
     for (i, pre) in names.iter().enumerate().take(d as usize + 1) {
         outln!("{pre}{}({})= {}", k.title(), g9(x), g9(k.eval(x, i as u32)));
     }
-    if a.given("a") {
-        let al: f64 = a.get("a")?;
-        if !al.is_finite() {
-            anyhow::bail!("-a: alpha must be a finite fractional position (got {al})");
-        }
+    if let Some(al) = alpha {
         let lo = k.lo();
         for (i, pre) in names.iter().enumerate().take(d as usize + 1) {
             let w: Vec<String> = (0..k.support() as i32)

@@ -799,6 +799,11 @@ fn append(d: &mut Data, b: &[u8], e: Endian, total: usize) -> Result<()> {
 /// [`crate::ErrorKind::Memory`] beyond the process's memory; IO errors of detached
 /// data files.
 pub fn read_bytes(bytes: &[u8], dir: &Path) -> Result<Nrrd> {
+    if bytes.is_empty() {
+        return Err(Error::msg(
+            "empty (0 bytes): neither a NRRD file nor a text array",
+        ));
+    }
     if !bytes.starts_with(b"NRRD") {
         if bytes.starts_with(b"\x1f\x8b") {
             return Err(Error::msg(
