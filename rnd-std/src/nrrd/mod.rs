@@ -109,6 +109,18 @@ impl Data {
     pub fn to_f64(&self) -> Vec<f64> {
         self.iter_f64().collect()
     }
+    /// The samples in order as text: f32 samples by their own shortest digits (0.1,
+    /// not the 0.10000000149011612 of their f64 widening), every other type widened
+    /// to f64 and written by `f64_text`.
+    pub(crate) fn texts<'a>(
+        &'a self,
+        f64_text: fn(f64) -> String,
+    ) -> Box<dyn Iterator<Item = String> + 'a> {
+        match self {
+            Data::F32(v) => Box::new(v.iter().map(|x| x.to_string())),
+            d => Box::new(d.iter_f64().map(f64_text)),
+        }
+    }
     /// All samples as f32 (rounded for wider types).
     #[allow(clippy::unnecessary_cast)] // the macro covers f32/f64 too
     pub fn to_f32(&self) -> Vec<f32> {

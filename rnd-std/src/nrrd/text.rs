@@ -91,12 +91,17 @@ pub fn write_text(n: &Nrrd, w: &mut dyn Write) -> Result<()> {
     for (k, v) in &n.header.key_values {
         writeln!(w, "#{k}:={v}").map_err(io)?;
     }
-    // f32 prints its own shortest digits, not those of its f64 widening.
-    let texts: Vec<String> = match &n.data {
-        Data::F32(v) => v.iter().map(|x| x.to_string()).collect(),
-        d => d.iter_f64().map(|x| x.to_string()).collect(),
-    };
-    for row in texts.chunks(cols.max(1)) {
+    // Row by row, never the whole array's text at once.
+    let cols = cols.max(1);
+    let mut row = Vec::with_capacity(cols);
+    for t in n.data.texts(|x| x.to_string()) {
+        row.push(t);
+        if row.len() == cols {
+            writeln!(w, "{}", row.join(" ")).map_err(io)?;
+            row.clear();
+        }
+    }
+    if !row.is_empty() {
         writeln!(w, "{}", row.join(" ")).map_err(io)?;
     }
     Ok(())

@@ -150,12 +150,7 @@ pub fn write_to(n: &Nrrd, opt: WriteOptions, w: &mut dyn Write) -> Result<()> {
         Encoding::Ascii => {
             let mut out = String::new();
             let per_line = h.sizes.first().copied().unwrap_or(1).max(1);
-            // f32 prints its own shortest digits, not those of its f64 widening.
-            let texts: Box<dyn Iterator<Item = String>> = match &n.data {
-                super::Data::F32(v) => Box::new(v.iter().map(|x| x.to_string())),
-                d => Box::new(d.iter_f64().map(fmt_f64)),
-            };
-            for (i, t) in texts.enumerate() {
+            for (i, t) in n.data.texts(fmt_f64).enumerate() {
                 out.push_str(&t);
                 out.push(if (i + 1) % per_line == 0 { '\n' } else { ' ' });
             }
