@@ -309,20 +309,43 @@ fn go_under_mpi_reports_each_ranks_brick_on_request() {
     sdg(&dir, ["45", "38", "31"], "syn.nrrd");
     let (name, _, gm) = go_scenes().remove(2);
     assert_eq!(name, "syn max gm");
-    let mut m: Vec<String> = ["-x", "RENDR_VERBOSE_BRICKS=1", "-np", "2", RENDR, "go"]
-        .map(String::from)
-        .to_vec();
+    // Each rank's stderr in a file of its own (mpirun's combined stream may splice
+    // the ranks' output together): ranks/1/rank.R/stderr.
+    let mut m: Vec<String> = [
+        "-x",
+        "RENDR_VERBOSE_BRICKS=1",
+        "--output-filename",
+        "ranks",
+        "-np",
+        "2",
+        RENDR,
+        "go",
+    ]
+    .map(String::from)
+    .to_vec();
     m.extend(gm);
     m.extend(["-nt", "1", "-o", "b.nrrd"].map(String::from));
     let out = mpirun(&dir, &m);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // 45 samples along the longest axis: rank 0 owns 0..22, rank 1 22..45.
-    for line in [
+    for (rank, line) in [
         "rendr go: rank 0 of 2: samples [0, 0, 0]..[25, 38, 31] of [45, 38, 31], read alone",
         "rendr go: rank 1 of 2: samples [20, 0, 0]..[45, 38, 31] of [45, 38, 31], read alone",
-    ] {
-        assert!(err.lines().any(|l| l == line), "no line {line:?} in {err}");
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let f = dir.join(format!("ranks/1/rank.{rank}/stderr"));
+        let err = std::fs::read_to_string(&f)
+            .unwrap_or_else(|e| panic!("{}: {e} (mpirun's --output-filename)", f.display()));
+        assert!(
+            err.lines().any(|l| l == line),
+            "no line {line:?} in {err:?}"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

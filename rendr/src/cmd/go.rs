@@ -383,8 +383,10 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
             .with_context(|| input.display().to_string())?;
         let own = own.context("no brick was chosen")?;
         if std::env::var_os("RENDR_VERBOSE_BRICKS").is_some() {
-            eprintln!(
-                "rendr go: rank {rank} of {n}: samples {:?}..{:?} of {:?}{}",
+            // One write of the whole line, so that mpirun does not splice another
+            // rank's output into it.
+            let line = format!(
+                "rendr go: rank {rank} of {n}: samples {:?}..{:?} of {:?}{}\n",
                 region.region.lo,
                 region.region.hi,
                 region.grid,
@@ -394,6 +396,7 @@ fn run_bricked(a: &Args, job: &crate::job::Ranks) -> anyhow::Result<()> {
                     ", cut from the whole volume"
                 }
             );
+            let _ = std::io::stderr().write_all(line.as_bytes());
         }
         let control = rnd_std::parallel::Control::new();
         let parts = rnd_std::parallel::render_part_with(
