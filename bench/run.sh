@@ -86,6 +86,11 @@ declare -A VOL=( [ct]="$CT" [syn]="syn.nhdr" )
 echo "## Machine"
 echo
 echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"
+# The model number and caches tell machines with one name apart (their ratios differ).
+cpuid=$(awk -F': *' '/^cpu family/ { f = $2 } /^model\t/ { m = $2 } /^stepping/ { s = $2; exit }
+  END { printf "family %s model %s stepping %s", f, m, s }' /proc/cpuinfo)
+caches=$(lscpu 2>/dev/null | awk -F': *' '/^L1d cache|^L2 cache|^L3 cache/ { sub(/ cache/, "", $1); printf "%s%s %s", sep, $1, $2; sep = ", " }')
+echo "- CPUID: $cpuid; caches: ${caches:-unknown}"
 echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
 echo "- go engine in the main sections: -ref $ENGINE"
 echo
