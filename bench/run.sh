@@ -93,6 +93,10 @@ caches=$(lscpu 2>/dev/null | awk -F': *' '/^L1d cache|^L2 cache|^L3 cache/ { sub
 echo "- CPUID: $cpuid; caches: ${caches:-unknown}"
 echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
 echo "- go engine in the main sections: -ref $ENGINE"
+# This shared machine has slow spells that slow Teem and rendr unequally (RESULTS.md runs
+# 64, 65): one core's peak before and after the run shows whether it ran in one.
+peak() { (cd "$top" && cargo bench -q -p rnd-tests --bench peak 2>/dev/null) | tr '\n' ';' | sed 's/;$//; s/;/; /g'; }
+echo "- one core's peak before the run: $(peak)"
 echo
 if [ "${ONLY:-all}" = all ]; then
 echo "## Samples per second, teem-mrender vs rendr go (orthographic, ${SZ}x${SZ}, $N samples per ray = $samples samples; whole commands, best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
@@ -340,3 +344,6 @@ done
 done
 fi
 fi
+
+echo
+echo "One core's peak after the run: $(peak)"
