@@ -95,8 +95,10 @@ echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-ap
 echo "- go engine in the main sections: -ref $ENGINE"
 # This shared machine has slow spells that slow Teem and rendr unequally (RESULTS.md runs
 # 64, 65): one core's peak before and after the run shows whether it ran in one.
-peak() { (cd "$top" && cargo bench -q -p rnd-tests --bench peak 2>/dev/null) | tr '\n' ';' | sed 's/;$//; s/;/; /g'; }
-echo "- one core's peak before the run: $(peak)"
+# `peak` prints one line a measurement (`cargo bench -p rnd-tests --bench peak`).
+peak() { (cd "$top" && cargo bench -q -p rnd-tests --bench peak 2>/dev/null); }
+peak_line() { peak | tr '\n' ';' | sed 's/;$//; s/;/; /g'; }
+echo "- one core's peak before the run: $(peak_line)"
 echo
 if [ "${ONLY:-all}" = all ]; then
 echo "## Samples per second, teem-mrender vs rendr go (orthographic, ${SZ}x${SZ}, $N samples per ray = $samples samples; whole commands, best of ${REPS:-4} Teem and $((2 * ${REPS:-4})) rendr runs, alternating)"
@@ -270,7 +272,7 @@ echo "the render phase (RND_VERBOSE, best of 3). The peak is one core's f32 thro
 echo "(\`cargo bench -p rnd-tests --bench peak\`, best of 5): rendr's bit-exact sums use"
 echo "separate multiplies and adds (no FMA), so 'mul+add' is its ceiling."
 echo
-(cd "$top" && cargo bench -q -p rnd-tests --bench peak 2>/dev/null) | sed 's/^/- /'
+peak | sed 's/^/- /'
 echo
 echo "| volume | rendering | inside samples | render s | inside Msamples/s |"
 echo "|---|---|---|---|---|"
@@ -352,4 +354,4 @@ fi
 fi
 
 echo
-echo "One core's peak after the run: $(peak)"
+echo "One core's peak after the run: $(peak_line)"
