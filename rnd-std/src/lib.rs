@@ -43,10 +43,23 @@ pub mod prelude {
 
 /// Total physical memory in bytes (Linux `/proc/meminfo`), if known.
 pub fn mem_total() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let s = read_small("/proc/meminfo")?;
     let line = s.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
+}
+
+/// A small system file (`/proc`, `/sys`) read whole. Such files report no size, so a
+/// plain `read_to_string` starts with a few bytes and grows, and `/proc/meminfo` is
+/// made anew for every read: room for the whole file up front takes one read.
+fn read_small(path: impl AsRef<std::path::Path>) -> Option<String> {
+    use std::io::Read;
+    let mut s = String::with_capacity(8192);
+    std::fs::File::open(path)
+        .ok()?
+        .read_to_string(&mut s)
+        .ok()?;
+    Some(s)
 }
 
 /// The most memory this process may hold, as far as the system says: the least of
@@ -56,24 +69,26 @@ pub fn mem_total() -> Option<u64> {
 /// is known. Checks of what a header or an option asks for compare with this before
 /// allocating; the allocations themselves are fallible as well, since other processes
 /// may hold part of it.
+///
+/// Physical memory and the groups' limits are read from their files once a process
+/// (the first call; about 0.2 ms of reading `/proc` and `/sys` on a virtual machine,
+/// which every render would otherwise spend before its threads start); the process's
+/// own limits, which it may change itself, on every call.
 pub fn mem_limit() -> Option<u64> {
-    [mem_total(), cgroup_limit(), rlimit_limit()]
-        .into_iter()
-        .flatten()
-        .min()
+    static SYSTEM: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+    let system = *SYSTEM.get_or_init(|| [mem_total(), cgroup_limit()].into_iter().flatten().min());
+    [system, rlimit_limit()].into_iter().flatten().min()
 }
 
 fn cgroup_limit() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let text = read_small("/proc/self/cgroup")?;
     let mut best: Option<u64> = None;
     let mut take = |v: Option<u64>| {
         if let Some(v) = v {
             best = Some(best.map_or(v, |b| b.min(v)));
         }
     };
-    let read_num = |p: std::path::PathBuf| -> Option<u64> {
-        std::fs::read_to_string(p).ok()?.trim().parse().ok()
-    };
+    let read_num = |p: std::path::PathBuf| -> Option<u64> { read_small(p)?.trim().parse().ok() };
     for line in text.lines() {
         let mut parts = line.splitn(3, ':');
         let (_, ctrl, path) = (parts.next()?, parts.next()?, parts.next()?);
@@ -157,30 +172,6 @@ fn refused<T>(n: usize, what: &str) -> Error {
     .with_kind(ErrorKind::Memory)
 }
 
-/// `len` zeros, from memory the system hands over already cleared where it can (a fresh
-/// mapping: its pages are then touched first by whoever writes them, e.g. the render's
-/// workers, rather than all at once here); memory the system refuses is an error, as
-/// for [`try_reserve`], not an abort.
-///
-/// # Errors
-/// When the allocation fails.
-pub fn try_zeros(len: usize, what: &str) -> Result<Vec<f32>> {
-    let refused = || refused::<f32>(len, what);
-    if len == 0 {
-        return Ok(Vec::new());
-    }
-    let layout = std::alloc::Layout::array::<f32>(len).map_err(|_| refused())?;
-    // SAFETY: the layout's size is not zero (len > 0, f32 is 4 bytes).
-    let p = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<f32>();
-    if p.is_null() {
-        return Err(refused());
-    }
-    // SAFETY: `p` was allocated by the global allocator with the layout of `len` f32s
-    // (as a Vec of capacity `len` holds them), and its bytes are zero, a valid f32
-    // (+0.0) each: the Vec owns `len` initialized elements.
-    Ok(unsafe { Vec::from_raw_parts(p, len, len) })
-}
-
 /// Human-readable byte count ("1.5 GiB").
 pub fn human_bytes(b: u64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
@@ -216,22 +207,3 @@ pub fn simd_level_from_env() -> rnd_core::simd::SimdLevel {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
-
-#[cfg(test)]
-mod tests {
-    /// Zeros of any length, and a refusal (not an abort) for more than the address space
-    /// can hold, naming what it was for.
-    #[test]
-    fn zeros_or_a_refusal() {
-        for n in [0usize, 1, 1000, 1 << 20] {
-            let v = super::try_zeros(n, "a test").unwrap();
-            assert_eq!(v.len(), n);
-            assert!(v.iter().all(|&x| x.to_bits() == 0));
-        }
-        for n in [usize::MAX / 4, (isize::MAX as usize) / 4 - 1] {
-            let e = super::try_zeros(n, "the test's floats").unwrap_err();
-            assert_eq!(e.kind, super::ErrorKind::Memory);
-            assert!(e.to_string().contains("the test's floats"), "{e}");
-        }
-    }
-}
