@@ -680,8 +680,9 @@ fn bands<T: Send, U: Send>(
         std::thread::scope(|s| {
             for me in 1..t {
                 let work = &work;
-                s.spawn(move || work(me));
+                spawn_apart(s, move || work(me));
             }
+            std::thread::yield_now();
             work(0);
         });
     }
@@ -697,7 +698,8 @@ fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> V
         return rays(0, 1);
     }
     std::thread::scope(|s| {
-        let parts: Vec<_> = (1..n).map(|i| s.spawn(move || rays(i, n))).collect();
+        let parts: Vec<_> = (1..n).map(|i| spawn_apart(s, move || rays(i, n))).collect();
+        std::thread::yield_now();
         let mut all = rays(0, n);
         // (A part whose thread failed gives no maxima: the verdict is only about time.)
         for p in parts {
@@ -705,6 +707,86 @@ fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> V
         }
         all
     })
+}
+
+/// Spawns `f` on `scope` as a worker beside the calling thread, which works too: a
+/// worker that starts on the CPU the caller was on when spawning it moves once to
+/// another CPU it may run on (see [`cpu::leave`]). The caller then yields once
+/// (`std::thread::yield_now`), so that a worker queued behind it gets to run and move.
+///
+/// Why (RESULTS.md, run 66): Linux places a new thread on the CPU whose recent load
+/// looks least, which is now and then the busy caller's own; the worker then waits for
+/// the next scheduler tick to run at all (~3-4 ms) and the two share one CPU until the
+/// load balancer parts them (up to ~13 ms seen), while the other CPU idles: a third of
+/// the CT's 2-thread lit `over` renders started so, taking 14-21 ms instead of 13.
+fn spawn_apart<'scope, T: Send + 'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    f: impl FnOnce() -> T + Send + 'scope,
+) -> std::thread::ScopedJoinHandle<'scope, T> {
+    let here = cpu::current();
+    scope.spawn(move || {
+        cpu::leave(here);
+        f()
+    })
+}
+
+/// Where the calling thread runs, and moving off a CPU (Linux; elsewhere nothing).
+mod cpu {
+    /// The CPU the calling thread is on, if the system says.
+    #[cfg(target_os = "linux")]
+    pub(super) fn current() -> Option<usize> {
+        // SAFETY: sched_getcpu takes no arguments and only returns a number (-1 when it
+        // cannot tell).
+        usize::try_from(unsafe { libc::sched_getcpu() }).ok()
+    }
+
+    /// Moves the calling thread off CPU `cpu` when it is on it and may run on another:
+    /// its allowed set without `cpu` for a moment (the kernel moves it at once), then
+    /// the whole set again, so it may run anywhere it could before. Nothing when the
+    /// thread is elsewhere, `cpu` is unknown or the only CPU allowed, or the system
+    /// refuses: this only saves time.
+    #[cfg(target_os = "linux")]
+    pub(super) fn leave(cpu: Option<usize>) {
+        let Some(cpu) = cpu.filter(|&c| current() == Some(c)) else {
+            return;
+        };
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        if cpu >= 8 * size {
+            return;
+        }
+        // SAFETY: cpu_set_t is an array of integers: all zeros is a valid (empty) set.
+        let mut all: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+        // SAFETY: sched_getaffinity writes at most `size` bytes, the size of `all`,
+        // into `all`, which lives on this stack for the call.
+        if unsafe { libc::sched_getaffinity(0, size, &mut all) } != 0 {
+            return;
+        }
+        let mut others = all;
+        // SAFETY: plain bit operations on sets we own; `cpu` is below the set's size in
+        // bits (checked above), so CPU_CLR's index is in bounds.
+        if unsafe {
+            libc::CPU_CLR(cpu, &mut others);
+            libc::CPU_COUNT(&others)
+        } == 0
+        {
+            return;
+        }
+        // SAFETY: sched_setaffinity reads `size` bytes, the size of `others` and of
+        // `all`, both valid sets on this stack; thread 0 is the calling thread.
+        unsafe {
+            if libc::sched_setaffinity(0, size, &others) == 0 {
+                libc::sched_setaffinity(0, size, &all);
+            }
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    pub(super) fn current() -> Option<usize> {
+        None
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    pub(super) fn leave(_: Option<usize>) {}
 }
 
 fn cancelled() -> Error {
@@ -1077,6 +1159,44 @@ mod tests {
             }
         }
         assert_eq!(aimed, 6);
+    }
+
+    /// `cpu::leave` moves the calling thread off the CPU it is on, to another it may
+    /// run on, and leaves it the set of CPUs it had (so it may come back later).
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn workers_leave_the_callers_cpu() {
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        let allowed = || {
+            // SAFETY: an all-zero cpu_set_t is the empty set; sched_getaffinity writes at
+            // most `size` bytes into it.
+            let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+            assert_eq!(unsafe { libc::sched_getaffinity(0, size, &mut set) }, 0);
+            set
+        };
+        let before = allowed();
+        // SAFETY: counts the bits of a set we own.
+        if unsafe { libc::CPU_COUNT(&before) } < 2 {
+            eprintln!("skipped: this thread may run on one CPU only");
+            return;
+        }
+        // (The scheduler may move the thread back at any time after; so a few tries.)
+        let mut moved = false;
+        for _ in 0..5 {
+            let here = super::cpu::current().expect("sched_getcpu answers on Linux");
+            super::cpu::leave(Some(here));
+            let after = allowed();
+            // SAFETY: compares two sets we own.
+            assert!(
+                unsafe { libc::CPU_EQUAL(&before, &after) },
+                "the set is as before"
+            );
+            if super::cpu::current() != Some(here) {
+                moved = true;
+                break;
+            }
+        }
+        assert!(moved, "the thread left its CPU");
     }
 
     /// A render's image (reserved uninitialized, each worker clearing its own rows just
