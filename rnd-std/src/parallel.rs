@@ -680,7 +680,7 @@ fn bands<T: Send, U: Send>(
         std::thread::scope(|s| {
             for me in 1..t {
                 let work = &work;
-                spawn_apart(s, move || work(me));
+                spawn_apart(s, t, move || work(me));
             }
             std::thread::yield_now();
             work(0);
@@ -698,7 +698,9 @@ fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> V
         return rays(0, 1);
     }
     std::thread::scope(|s| {
-        let parts: Vec<_> = (1..n).map(|i| spawn_apart(s, move || rays(i, n))).collect();
+        let parts: Vec<_> = (1..n)
+            .map(|i| spawn_apart(s, n as usize, move || rays(i, n)))
+            .collect();
         std::thread::yield_now();
         let mut all = rays(0, n);
         // (A part whose thread failed gives no maxima: the verdict is only about time.)
@@ -709,10 +711,11 @@ fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> V
     })
 }
 
-/// Spawns `f` on `scope` as a worker beside the calling thread, which works too: a
-/// worker that starts on the CPU the caller was on when spawning it moves once to
-/// another CPU it may run on (see [`cpu::leave`]). The caller then yields once
-/// (`std::thread::yield_now`), so that a worker queued behind it gets to run and move.
+/// Spawns `f` on `scope` as one of `workers` threads (the calling thread one of them,
+/// working too): a worker that starts on the CPU the caller was on when spawning it
+/// moves once to another CPU it may run on, when there are at least as many of those as
+/// workers (see [`cpu::leave`]). The caller then yields once (`std::thread::yield_now`),
+/// so that a worker queued behind it gets to run and move.
 ///
 /// Why (RESULTS.md, run 66): Linux places a new thread on the CPU whose recent load
 /// looks least, which is now and then the busy caller's own; the worker then waits for
@@ -721,11 +724,12 @@ fn on_threads(rays: &(dyn Fn(u32, u32) -> Vec<f32> + Sync), threads: usize) -> V
 /// the CT's 2-thread lit `over` renders started so, taking 14-21 ms instead of 13.
 fn spawn_apart<'scope, T: Send + 'scope>(
     scope: &'scope std::thread::Scope<'scope, '_>,
+    workers: usize,
     f: impl FnOnce() -> T + Send + 'scope,
 ) -> std::thread::ScopedJoinHandle<'scope, T> {
     let here = cpu::current();
     scope.spawn(move || {
-        cpu::leave(here);
+        cpu::leave(here, workers);
         f()
     })
 }
@@ -740,13 +744,14 @@ mod cpu {
         usize::try_from(unsafe { libc::sched_getcpu() }).ok()
     }
 
-    /// Moves the calling thread off CPU `cpu` when it is on it and may run on another:
-    /// its allowed set without `cpu` for a moment (the kernel moves it at once), then
-    /// the whole set again, so it may run anywhere it could before. Nothing when the
-    /// thread is elsewhere, `cpu` is unknown or the only CPU allowed, or the system
-    /// refuses: this only saves time.
+    /// Moves the calling thread, one of `workers`, off CPU `cpu` when it is on it and
+    /// may run on another: its allowed set without `cpu` for a moment (the kernel moves
+    /// it at once), then the whole set again, so it may run anywhere it could before.
+    /// Nothing when the thread is elsewhere, `cpu` is unknown, fewer CPUs are allowed
+    /// than there are workers (they must share some CPU anyway) or only one, or the
+    /// system refuses: this only saves time.
     #[cfg(target_os = "linux")]
-    pub(super) fn leave(cpu: Option<usize>) {
+    pub(super) fn leave(cpu: Option<usize>, workers: usize) {
         let Some(cpu) = cpu.filter(|&c| current() == Some(c)) else {
             return;
         };
@@ -764,11 +769,11 @@ mod cpu {
         let mut others = all;
         // SAFETY: plain bit operations on sets we own; `cpu` is below the set's size in
         // bits (checked above), so CPU_CLR's index is in bounds.
-        if unsafe {
+        let allowed = unsafe {
             libc::CPU_CLR(cpu, &mut others);
-            libc::CPU_COUNT(&others)
-        } == 0
-        {
+            libc::CPU_COUNT(&all)
+        };
+        if allowed < 2 || (allowed as usize) < workers {
             return;
         }
         // SAFETY: sched_setaffinity reads `size` bytes, the size of `others` and of
@@ -786,7 +791,7 @@ mod cpu {
     }
 
     #[cfg(not(target_os = "linux"))]
-    pub(super) fn leave(_: Option<usize>) {}
+    pub(super) fn leave(_: Option<usize>, _: usize) {}
 }
 
 fn cancelled() -> Error {
@@ -1162,7 +1167,8 @@ mod tests {
     }
 
     /// `cpu::leave` moves the calling thread off the CPU it is on, to another it may
-    /// run on, and leaves it the set of CPUs it had (so it may come back later).
+    /// run on, and leaves it the set of CPUs it had (so it may come back later); not
+    /// when there are more workers than CPUs it may run on.
     #[test]
     #[cfg(target_os = "linux")]
     fn workers_leave_the_callers_cpu() {
@@ -1176,15 +1182,24 @@ mod tests {
         };
         let before = allowed();
         // SAFETY: counts the bits of a set we own.
-        if unsafe { libc::CPU_COUNT(&before) } < 2 {
+        let n = unsafe { libc::CPU_COUNT(&before) } as usize;
+        if n < 2 {
             eprintln!("skipped: this thread may run on one CPU only");
             return;
         }
+        // More workers than CPUs: it stays (the scheduler may still move it on its own,
+        // so once in a few tries is enough).
+        let stayed = (0..5).any(|_| {
+            let here = super::cpu::current();
+            super::cpu::leave(here, n + 1);
+            super::cpu::current() == here
+        });
+        assert!(stayed, "a thread among more workers than CPUs stays");
         // (The scheduler may move the thread back at any time after; so a few tries.)
         let mut moved = false;
         for _ in 0..5 {
             let here = super::cpu::current().expect("sched_getcpu answers on Linux");
-            super::cpu::leave(Some(here));
+            super::cpu::leave(Some(here), n);
             let after = allowed();
             // SAFETY: compares two sets we own.
             assert!(
