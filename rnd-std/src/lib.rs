@@ -7,6 +7,7 @@
 //! ([`Error`]) names the file it concerns.
 #![deny(missing_docs)]
 #![deny(clippy::missing_errors_doc, clippy::missing_panics_doc)]
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 mod codec;
 pub mod error;

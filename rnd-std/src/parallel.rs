@@ -1174,10 +1174,12 @@ mod tests {
     fn workers_leave_the_callers_cpu() {
         let size = std::mem::size_of::<libc::cpu_set_t>();
         let allowed = || {
-            // SAFETY: an all-zero cpu_set_t is the empty set; sched_getaffinity writes at
-            // most `size` bytes into it.
+            // SAFETY: an all-zero cpu_set_t is the empty set.
             let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
-            assert_eq!(unsafe { libc::sched_getaffinity(0, size, &mut set) }, 0);
+            // SAFETY: sched_getaffinity writes at most `size` bytes, the set's size, into
+            // the set we own.
+            let got = unsafe { libc::sched_getaffinity(0, size, &mut set) };
+            assert_eq!(got, 0);
             set
         };
         let before = allowed();
@@ -1202,10 +1204,8 @@ mod tests {
             super::cpu::leave(Some(here), n);
             let after = allowed();
             // SAFETY: compares two sets we own.
-            assert!(
-                unsafe { libc::CPU_EQUAL(&before, &after) },
-                "the set is as before"
-            );
+            let same = unsafe { libc::CPU_EQUAL(&before, &after) };
+            assert!(same, "the set is as before");
             if super::cpu::current() != Some(here) {
                 moved = true;
                 break;
