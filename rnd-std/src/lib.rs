@@ -72,9 +72,9 @@ fn read_small(path: impl AsRef<std::path::Path>) -> Option<String> {
 /// may hold part of it.
 ///
 /// Physical memory and the groups' limits are read from their files once a process
-/// (the first call; about 0.2 ms of reading `/proc` and `/sys` on a virtual machine,
-/// which every render would otherwise spend before its threads start); the process's
-/// own limits, which it may change itself, on every call.
+/// (the first call; about 0.05 ms of reading `/proc` and `/sys` on a virtual machine,
+/// which every render would otherwise spend again before its threads start); the
+/// process's own limits, which it may change itself, on every call.
 pub fn mem_limit() -> Option<u64> {
     static SYSTEM: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
     let system = *SYSTEM.get_or_init(|| [mem_total(), cgroup_limit()].into_iter().flatten().min());
