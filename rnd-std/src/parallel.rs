@@ -759,13 +759,9 @@ mod cpu {
         if cpu >= 8 * size {
             return;
         }
-        // SAFETY: cpu_set_t is an array of integers: all zeros is a valid (empty) set.
-        let mut all: libc::cpu_set_t = unsafe { std::mem::zeroed() };
-        // SAFETY: sched_getaffinity writes at most `size` bytes, the size of `all`,
-        // into `all`, which lives on this stack for the call.
-        if unsafe { libc::sched_getaffinity(0, size, &mut all) } != 0 {
+        let Some(all) = allowed() else {
             return;
-        }
+        };
         let mut others = all;
         // SAFETY: plain bit operations on sets we own; `cpu` is below the set's size in
         // bits (checked above), so CPU_CLR's index is in bounds.
@@ -783,6 +779,18 @@ mod cpu {
                 libc::sched_setaffinity(0, size, &all);
             }
         }
+    }
+
+    /// The CPUs the calling thread may run on, if the system says.
+    #[cfg(target_os = "linux")]
+    pub(super) fn allowed() -> Option<libc::cpu_set_t> {
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        // SAFETY: cpu_set_t is an array of integers: all zeros is a valid (empty) set.
+        let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+        // SAFETY: sched_getaffinity writes at most `size` bytes, the size of `set`, into
+        // `set`, which lives on this stack for the call; thread 0 is the calling thread.
+        let got = unsafe { libc::sched_getaffinity(0, size, &mut set) };
+        (got == 0).then_some(set)
     }
 
     #[cfg(not(target_os = "linux"))]
@@ -1172,16 +1180,7 @@ mod tests {
     #[test]
     #[cfg(target_os = "linux")]
     fn workers_leave_the_callers_cpu() {
-        let size = std::mem::size_of::<libc::cpu_set_t>();
-        let allowed = || {
-            // SAFETY: an all-zero cpu_set_t is the empty set.
-            let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
-            // SAFETY: sched_getaffinity writes at most `size` bytes, the set's size, into
-            // the set we own.
-            let got = unsafe { libc::sched_getaffinity(0, size, &mut set) };
-            assert_eq!(got, 0);
-            set
-        };
+        let allowed = || super::cpu::allowed().expect("sched_getaffinity answers on Linux");
         let before = allowed();
         // SAFETY: counts the bits of a set we own.
         let n = unsafe { libc::CPU_COUNT(&before) } as usize;
