@@ -12,6 +12,8 @@
 #        ONLY=threads bench/run.sh   (only rendr's 2-thread speed-up)
 #        ENGINE=false bench/run.sh   (the main sections with go -ref false)
 #        MAP=0 bench/run.sh   (rendr reads the volumes into memory rather than mapping them)
+#        RND_AVX512=0 bench/run.sh   (rendr without AVX-512, as on an AVX2-only processor;
+#                                     RND_AVX2=0: SSE2 only; the Machine section says which)
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 (cd "$top" && cargo build --release -q -p rendr)
@@ -93,6 +95,8 @@ caches=$(lscpu 2>/dev/null | awk -F': *' '/^L1d cache|^L2 cache|^L3 cache/ { sub
 echo "- CPUID: $cpuid; caches: ${caches:-unknown}"
 echo "- $(teem-unu --version 2>/dev/null | head -1 || echo 'Teem (Debian teem-apps)'); rendr $(git -C "$top" rev-parse --short HEAD)"
 echo "- go engine in the main sections: -ref $ENGINE"
+# RND_AVX2=0 / RND_AVX512=0 turn rendr's wider vector paths off: say which it uses.
+echo "- rendr's vector paths: $("$R" about | awk '/^Vector paths in use:/ { sub(/^Vector paths in use: /, ""); sub(/ \(.*/, ""); print }')"
 # This shared machine has slow spells that slow Teem and rendr unequally (RESULTS.md runs
 # 64, 65): one core's peak before and after the run shows whether it ran in one.
 # `peak` prints one line a measurement (`cargo bench -p rnd-tests --bench peak`).
