@@ -4,7 +4,9 @@
 //! must give exactly the plain loop's image (the f64 engine, `-ref false`). The same for
 //! the reference arithmetic (the default): finite output, and its batched loop gives the
 //! one-sample loop's image; and `render_rows` and `cast` refuse outputs of the wrong
-//! shape (a Render error) and fill those of the right one with the image's bits.
+//! shape (a Render error) and fill those of the right one with the image's bits. Both
+//! engines give the same bits at a narrower vector level and on i16 voxels holding the
+//! same integers.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -15,7 +17,7 @@ use rnd_core::kernel::KernelName;
 use rnd_core::light::{Light, LightSpace, Phong};
 use rnd_core::probe::Probe;
 use rnd_core::march::Loop;
-use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo};
+use rnd_core::render::{AnyVolume, RenderParams, RenderSpec, SampleInfo, SimdLevel};
 use rnd_core::classify::{LutAxis, Quantity};
 use rnd_core::txf::{Levoy, Lut};
 use rnd_core::volume::Volume;
@@ -171,6 +173,32 @@ fuzz_target!(|data: &[u8]| {
     }
     if let Err(e) = r {
         assert_eq!(e.kind, rnd_core::ErrorKind::Render, "{e}");
+    }
+    // A narrower vector path (read last, as above) gives the reference arithmetic's and
+    // the f64 engine's bits, on f32 voxels and on i16 voxels holding the same integers
+    // (each voxel becomes the same f32 before any arithmetic).
+    let level = [SimdLevel::Baseline, SimdLevel::Avx2][b.u8() as usize % 2];
+    let ints: Vec<i16> = (0..6 * 7 * 8).map(|i| ((i * 37) % 11) as i16 * 97 - 480).collect();
+    let floats: Vec<f32> = ints.iter().map(|&v| v as f32).collect();
+    let fvol = AnyVolume::F32(Volume::new(&floats, [6, 7, 8], itow).unwrap());
+    let ivol = AnyVolume::I16(Volume::new(&ints, [6, 7, 8], itow).unwrap());
+    for reference in [true, false] {
+        let mut q = p.clone();
+        q.reference = reference;
+        let Ok(wide) = RenderSpec::new(q.clone(), lut.as_ref(), lev.as_ref(), &lights) else { continue };
+        q.simd = level;
+        let narrow = RenderSpec::new(q, lut.as_ref(), lev.as_ref(), &lights).expect("same validation");
+        let want = render(&wide, fvol, kernel);
+        for (got, what) in [
+            (render(&narrow, fvol, kernel), "f32"),
+            (render(&wide, ivol, kernel), "i16"),
+            (render(&narrow, ivol, kernel), "i16"),
+        ] {
+            assert!(
+                want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{what} voxels at {level:?}: {got:?} vs {want:?} for {p:?} {kernel} (reference {reference})"
+            );
+        }
     }
 });
 
