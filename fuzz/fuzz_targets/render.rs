@@ -190,13 +190,13 @@ fuzz_target!(|data: &[u8]| {
         let narrow = RenderSpec::new(q, lut.as_ref(), lev.as_ref(), &lights).expect("same validation");
         let want = render(&wide, fvol, kernel);
         for (got, what) in [
-            (render(&narrow, fvol, kernel), "f32"),
-            (render(&wide, ivol, kernel), "i16"),
-            (render(&narrow, ivol, kernel), "i16"),
+            (render(&narrow, fvol, kernel), "f32 voxels, the narrower level"),
+            (render(&wide, ivol, kernel), "i16 voxels, the widest level"),
+            (render(&narrow, ivol, kernel), "i16 voxels, the narrower level"),
         ] {
             assert!(
                 want.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()),
-                "{what} voxels at {level:?}: {got:?} vs {want:?} for {p:?} {kernel} (reference {reference})"
+                "{what} ({level:?}): {got:?} vs f32 at the widest {want:?} for {p:?} {kernel} (reference {reference})"
             );
         }
     }
