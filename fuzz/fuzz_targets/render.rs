@@ -182,16 +182,15 @@ fuzz_target!(|data: &[u8]| {
     let floats: Vec<f32> = ints.iter().map(|&v| v as f32).collect();
     let fvol = AnyVolume::F32(Volume::new(&floats, [6, 7, 8], itow).unwrap());
     let ivol = AnyVolume::I16(Volume::new(&ints, [6, 7, 8], itow).unwrap());
-    for reference in [true, false] {
-        let mut q = p.clone();
-        q.reference = reference;
-        let Ok(wide) = RenderSpec::new(q.clone(), lut.as_ref(), lev.as_ref(), &lights) else { continue };
+    for wide in [&ref_spec, &spec] {
+        let mut q = wide.params().clone();
         q.simd = level;
+        let reference = q.reference;
         let narrow = RenderSpec::new(q, lut.as_ref(), lev.as_ref(), &lights).expect("same validation");
-        let want = render(&wide, fvol, kernel);
+        let want = render(wide, fvol, kernel);
         for (got, what) in [
             (render(&narrow, fvol, kernel), "f32 voxels, the narrower level"),
-            (render(&wide, ivol, kernel), "i16 voxels, the widest level"),
+            (render(wide, ivol, kernel), "i16 voxels, the widest level"),
             (render(&narrow, ivol, kernel), "i16 voxels, the narrower level"),
         ] {
             assert!(
