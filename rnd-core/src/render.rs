@@ -21,9 +21,9 @@ use crate::txf::{Levoy, Lut};
 use crate::volume::Volume;
 use crate::voxel::Voxel;
 
-/// Volumes of more voxels than this get a pilot before their `max` skip grid is built
-/// ([`RenderSpec::pilot`]); smaller ones always get the grid (2^23: a 256 × 256 × 128
-/// volume).
+/// Volumes of more voxels than this get a pilot before their `max` value grid is built
+/// ([`RenderSpec::pilot`]); smaller ones always get it (2^23: a 256 × 256 × 128 volume).
+/// A gradient-magnitude grid gets a pilot on every volume.
 pub const PILOT_VOXELS: usize = 1 << 23;
 
 #[doc(hidden)]
@@ -581,12 +581,16 @@ impl<'a> RenderSpec<'a> {
 
     /// [`RenderSpec::skip_pays`] for a volume and kernel known at compile time. A `max`
     /// grid costs a pass over every voxel, and saves only where a block's bound falls
-    /// below a ray's running maximum. On a volume of more than [`PILOT_VOXELS`] voxels,
-    /// a pilot casts up to 16 × 16 rays spread over the image (no skipping; their
-    /// results are the rays' maxima) and samples the bound of every eighth fine block
-    /// along each axis ([`SkipPlan::sample_bounds`]): the grid is built when, averaged
-    /// over the pilot rays, at least one sampled block in 16 lies below the ray's
-    /// maximum. Smaller volumes always get their (cheap) grid.
+    /// below a ray's running maximum. A pilot casts up to 16 × 16 rays spread over the
+    /// image (no skipping; their results are the rays' maxima) and samples the bound of
+    /// every eighth fine block along each axis ([`SkipPlan::sample_bounds`]): the grid
+    /// is built when, averaged over the pilot rays, enough sampled blocks lie below the
+    /// ray's maximum: one in 16 for the value, one in 2 for the gradient magnitude,
+    /// whose bounds are looser (on a CT whose pilot found 35–41%, the gradient grid
+    /// skipped next to nothing and cost its build, 4–10% of the render;
+    /// bench/RESULTS.md run 69). A value grid on a volume of at most [`PILOT_VOXELS`]
+    /// voxels is built without a pilot (it is cheap there); a gradient grid always has
+    /// one.
     #[doc(hidden)]
     pub fn pilot<V: Voxel, K: Kernel<S>, const S: usize>(
         &self,
@@ -599,7 +603,8 @@ impl<'a> RenderSpec<'a> {
             Some(kind) => kind,
         };
         let sizes = vol.sizes();
-        if sizes[0].saturating_mul(sizes[1]).saturating_mul(sizes[2]) <= PILOT_VOXELS {
+        let voxels = sizes[0].saturating_mul(sizes[1]).saturating_mul(sizes[2]);
+        if kind == SkipKind::MaxValue && voxels <= PILOT_VOXELS {
             return true;
         }
         self.pilot_says::<V, K, S>(vol, kind, cast)
@@ -643,13 +648,15 @@ impl<'a> RenderSpec<'a> {
             return false;
         }
         // Per pilot ray, the share of sampled blocks below its maximum (blocks it could
-        // skip once its running maximum is there); the grid when they average 1/16.
+        // skip once its running maximum is there); the grid when they average 1/16 (the
+        // value) or 1/2 (the gradient magnitude).
         bounds.sort_by(f32::total_cmp);
         let below: usize = maxima
             .iter()
             .map(|&q| bounds.partition_point(|&b| b < q))
             .sum();
-        below * 16 >= bounds.len() * maxima.len()
+        let need = if kind == SkipKind::MaxGradMag { 2 } else { 16 };
+        below * need >= bounds.len() * maxima.len()
     }
 
     /// Whether the gradient is computed at each sample.

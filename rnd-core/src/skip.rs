@@ -1472,10 +1472,12 @@ mod tests {
         }
     }
 
-    /// The pilot builds a `max` grid where rays can skip (a bright blob in a dim field:
-    /// most blocks lie below the rays' maxima) and not where no block can be skipped
-    /// (noise of the same range everywhere, as the 256³ bench volume), for the value and
-    /// the gradient magnitude.
+    /// The pilot builds a `max` grid where rays can skip (for the value a bright blob in
+    /// a dim field, for the gradient magnitude a sharp step across the view: most
+    /// blocks lie below the rays' maxima) and not where they can skip too little (noise
+    /// of the same range everywhere, as the 256³ bench volume; for the gradient, the
+    /// blob too), and below [`PILOT_VOXELS`](crate::render::PILOT_VOXELS) only the
+    /// gradient grid asks it.
     #[test]
     fn pilot_builds_grids_that_skip() {
         use crate::affine::Affine4;
@@ -1496,6 +1498,14 @@ mod tests {
                 libm::expf(-r2 / 100.0) + ((i * 7919) % 101) as f32 / 20000.0
             })
             .collect();
+        // A sharp step across the view axis: every ray's steepest gradient is at the
+        // step, and most blocks, away from it, bound a far smaller one.
+        let step: Vec<f32> = (0..n)
+            .map(|i| {
+                let y = at(i)[1];
+                1.0 / (1.0 + libm::expf(-y)) + ((i * 7919) % 101) as f32 / 20000.0
+            })
+            .collect();
         let noise: Vec<f32> = (0..n).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
         let itow = Affine4::from_columns([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [-23.5; 3]);
         let mut p = RenderParams::new(CameraSpec {
@@ -1509,16 +1519,27 @@ mod tests {
             orthographic: true,
         });
         p.blend = Blend::Max;
-        for (probe, kind) in [
+        // (The blob's gradient grid would skip too little: its pilot finds fewer than
+        // half the sampled blocks below the rays' maxima.)
+        let (v, g) = (
             (Probe::Value, SkipKind::MaxValue),
             (Probe::GradMag, SkipKind::MaxGradMag),
+        );
+        for ((probe, kind), cases) in [
+            (v, [(&blob, true), (&noise, false)]),
+            (g, [(&step, true), (&blob, false)]),
+            (g, [(&step, true), (&noise, false)]),
         ] {
             p.probe = probe;
             let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
-            for (data, builds) in [(&blob, true), (&noise, false)] {
+            for (data, builds) in cases {
                 let vol = Volume::new(data, sizes, itow).unwrap();
                 let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind, &|rays| rays(0, 1));
                 assert_eq!(says, builds, "{probe:?} blob {builds}");
+                // Under PILOT_VOXELS a value grid is built without a pilot; a gradient
+                // grid's pilot decides as on a large volume.
+                let pays = spec.pilot::<f32, Bspln3, 4>(vol, &|rays| rays(0, 1));
+                assert_eq!(pays, builds || kind == SkipKind::MaxValue, "{probe:?}");
                 // Cast in parts (as on several threads), in any order: the same rays'
                 // results, and the same verdict.
                 let whole = core::cell::RefCell::new(Vec::new());
