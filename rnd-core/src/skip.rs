@@ -1526,13 +1526,12 @@ mod tests {
             (Probe::GradMag, SkipKind::MaxGradMag),
         );
         for ((probe, kind), cases) in [
-            (v, [(&blob, true), (&noise, false)]),
-            (g, [(&step, true), (&blob, false)]),
-            (g, [(&step, true), (&noise, false)]),
+            (v, &[(&blob, true), (&noise, false)][..]),
+            (g, &[(&step, true), (&blob, false), (&noise, false)][..]),
         ] {
             p.probe = probe;
             let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
-            for (data, builds) in cases {
+            for &(data, builds) in cases {
                 let vol = Volume::new(data, sizes, itow).unwrap();
                 let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind, &|rays| rays(0, 1));
                 assert_eq!(says, builds, "{probe:?} blob {builds}");
