@@ -1526,19 +1526,30 @@ mod tests {
             (Probe::GradMag, SkipKind::MaxGradMag),
         );
         for ((probe, kind), cases) in [
-            (v, &[(&blob, true), (&noise, false)][..]),
-            (g, &[(&step, true), (&blob, false), (&noise, false)][..]),
+            (v, &[("blob", &blob, true), ("noise", &noise, false)][..]),
+            (
+                g,
+                &[
+                    ("step", &step, true),
+                    ("blob", &blob, false),
+                    ("noise", &noise, false),
+                ][..],
+            ),
         ] {
             p.probe = probe;
             let spec = RenderSpec::new(p.clone(), None, None, &[]).unwrap();
-            for &(data, builds) in cases {
+            for &(name, data, builds) in cases {
                 let vol = Volume::new(data, sizes, itow).unwrap();
                 let says = spec.pilot_says::<f32, Bspln3, 4>(vol, kind, &|rays| rays(0, 1));
-                assert_eq!(says, builds, "{probe:?} blob {builds}");
+                assert_eq!(says, builds, "{probe:?} {name}");
                 // Under PILOT_VOXELS a value grid is built without a pilot; a gradient
                 // grid's pilot decides as on a large volume.
                 let pays = spec.pilot::<f32, Bspln3, 4>(vol, &|rays| rays(0, 1));
-                assert_eq!(pays, builds || kind == SkipKind::MaxValue, "{probe:?}");
+                assert_eq!(
+                    pays,
+                    builds || kind == SkipKind::MaxValue,
+                    "{probe:?} {name}"
+                );
                 // Cast in parts (as on several threads), in any order: the same rays'
                 // results, and the same verdict.
                 let whole = core::cell::RefCell::new(Vec::new());
@@ -1549,7 +1560,7 @@ mod tests {
                     split.borrow_mut().clone_from(&parts);
                     parts
                 });
-                assert_eq!(says3, builds);
+                assert_eq!(says3, builds, "{probe:?} {name}");
                 let (mut whole, mut split) = (whole.into_inner(), split.into_inner());
                 whole.sort_by(f32::total_cmp);
                 split.sort_by(f32::total_cmp);
